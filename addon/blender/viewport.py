@@ -1,0 +1,9 @@
+"""(placeholder until its owner fills it in)."""
+
+
+def register():
+    pass
+
+
+def unregister():
+    pass

@@ -1,0 +1,81 @@
+"""A pinhole or orthographic camera in pixel terms, shared by every renderer.
+
+Conventions (Blender's): camera space looks down -z with +y up.
+Image space: origin at the top-left corner, x right, y down, in pixels;
+pixel (i, j) has its centre at (i + 0.5, j + 0.5). Images are stored
+top-down, shape (height, width, channels).
+
+Perspective:  u = cx + fx * x / -z,   v = cy - fy * y / -z
+Orthographic: u = cx + fx * x,        v = cy - fy * y
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Camera:
+    world_to_camera: np.ndarray  # (4, 4) float64, rigid: inverse of the camera's world matrix
+    width: int
+    height: int
+    fx: float  # pixels per unit of x/-z (perspective) or per world unit (ortho)
+    fy: float
+    cx: float
+    cy: float
+    near: float
+    far: float
+    ortho: bool = False
+
+    @property
+    def camera_to_world(self) -> np.ndarray:
+        return np.linalg.inv(self.world_to_camera)
+
+    @property
+    def position(self) -> np.ndarray:
+        """Camera centre in world space (float64)."""
+        return self.camera_to_world[:3, 3].copy()
+
+    @property
+    def tan_half_fov(self) -> tuple[float, float]:
+        """tan of half the horizontal and vertical field of view (perspective)."""
+        return self.width / (2.0 * self.fx), self.height / (2.0 * self.fy)
+
+    def project(self, points_world: np.ndarray) -> np.ndarray:
+        """(N, 3) world points -> (N, 3) pixel u, v and camera-space depth (-z), float64."""
+        p = np.asarray(points_world, np.float64)
+        cam = p @ self.world_to_camera[:3, :3].T + self.world_to_camera[:3, 3]
+        depth = -cam[:, 2]
+        if self.ortho:
+            u = self.cx + self.fx * cam[:, 0]
+            v = self.cy - self.fy * cam[:, 1]
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                u = self.cx + self.fx * cam[:, 0] / depth
+                v = self.cy - self.fy * cam[:, 1] / depth
+        return np.stack([u, v, depth], axis=1)
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """world_to_camera for a camera at eye looking at target (Blender convention)."""
+    eye, target, up = (np.asarray(v, np.float64) for v in (eye, target, up))
+    back = eye - target
+    back /= np.linalg.norm(back)
+    right = np.cross(up, back)
+    if np.linalg.norm(right) < 1e-12:  # looking along up: pick any perpendicular
+        right = np.cross((0.0, 1.0, 0.0), back)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(back, right)
+    cam_to_world = np.eye(4)
+    cam_to_world[:3, 0], cam_to_world[:3, 1], cam_to_world[:3, 2] = right, true_up, back
+    cam_to_world[:3, 3] = eye
+    return np.linalg.inv(cam_to_world)
+
+
+def simple_camera(width: int, height: int, fov_x_deg: float, world_to_camera,
+                  near: float = 0.1, far: float = 1000.0) -> Camera:
+    """A centred perspective camera with square pixels, for tests and benchmarks."""
+    fx = width / (2.0 * np.tan(np.radians(fov_x_deg) / 2.0))
+    return Camera(np.asarray(world_to_camera, np.float64), width, height, fx, fx,
+                  width / 2.0, height / 2.0, near, far)

@@ -1,0 +1,1 @@
+"""Benchmarks: each module prints a table. Run them all with `make bench`."""

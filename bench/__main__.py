@@ -1,0 +1,20 @@
+"""Run every benchmark table (or only those named: python -m bench import render)."""
+from __future__ import annotations
+
+import importlib
+import sys
+
+TABLES = ("import_bench", "render_bench", "viewport_bench", "effects_bench")
+
+
+def main(argv) -> int:
+    chosen = [t for t in TABLES if not argv or any(a in t for a in argv)]
+    for name in chosen:
+        module = importlib.import_module(f"bench.{name}")
+        print(f"\n=== {name} ===", flush=True)
+        module.main()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,105 @@
+"""Splat file formats: one module per format, one entry point.
+
+    read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix") -> SplatSet
+    read_with_report(path, ...) -> (SplatSet, ReadReport)
+    write(path, splats, format=None)
+
+Readers return SplatSet with activations applied and the file's axis convention.
+Every failure raises SplatFormatError(path, reason).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+from ..errors import SplatFormatError
+from ..select import select
+from ..splats import SplatSet
+from ..validate import BadValues, check_values
+from ._common import file_size
+
+READ_FORMATS = ("ply", "compressed_ply", "splat", "spz")
+WRITE_FORMATS = ("ply", "splat")
+EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz"}
+
+
+@dataclass
+class ReadReport:
+    path: str
+    format: str
+    count_in_file: int = 0
+    sh_degree_in_file: int = 0
+    bad: BadValues = field(default_factory=BadValues)
+
+
+def detect_format(path) -> str:
+    """Format name from the file's magic bytes, falling back to its extension."""
+    file_size(path)
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    if head.startswith(b"ply"):
+        end = head.find(b"end_header")
+        return "compressed_ply" if b"element chunk " in head[: end if end >= 0 else None] else "ply"
+    if head[:2] == b"\x1f\x8b" or head[:4] == b"NGSP":
+        return "spz"
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext in (".ply", ".spz"):
+        raise SplatFormatError(path, f"does not start like a {ext} file (bad magic bytes)")
+    if ext in EXTENSIONS:
+        return EXTENSIONS[ext]
+    raise SplatFormatError(path, f"unknown splat format (extension {ext or 'none'!r}, no known magic)")
+
+
+def _reader(fmt: str):
+    if fmt == "ply":
+        from .ply import read_ply
+        return read_ply
+    if fmt == "compressed_ply":
+        from .compressed_ply import read_compressed_ply
+        return read_compressed_ply
+    if fmt == "splat":
+        from .splat import read_splat
+        return read_splat
+    if fmt == "spz":
+        from .spz import read_spz
+        return read_spz
+    raise SplatFormatError(None, f"unknown read format {fmt!r}; known: {', '.join(READ_FORMATS)}")
+
+
+def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
+                     format=None) -> tuple[SplatSet, ReadReport]:
+    """Decode a file, handle bad values by policy `bad`, then apply the import options."""
+    fmt = format or detect_format(path)
+    max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
+    splats = _reader(fmt)(path, max_degree=max_degree)
+    report = ReadReport(os.fspath(path), fmt, splats.count, splats.sh_degree)
+    splats, report.bad = check_values(splats, bad, path)
+    splats = select(splats, sh_degree, min_opacity, max_count)
+    return splats.check(), report
+
+
+def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", format=None) -> SplatSet:
+    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format)[0]
+
+
+def format_for_output(path) -> str:
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    fmt = EXTENSIONS.get(ext)
+    if fmt not in WRITE_FORMATS:
+        raise SplatFormatError(path, f"cannot write {ext or 'extension-less'} files; "
+                                     f"writable: {', '.join(WRITE_FORMATS)}")
+    return fmt
+
+
+def write(path, splats: SplatSet, format=None) -> None:
+    fmt = format or format_for_output(path)
+    if os.path.isdir(path):
+        raise SplatFormatError(path, "is a directory")
+    if fmt == "ply":
+        from .ply import write_ply
+        write_ply(path, splats)
+    elif fmt == "splat":
+        from .splat import write_splat
+        write_splat(path, splats)
+    else:
+        raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(WRITE_FORMATS)}")

@@ -1,0 +1,57 @@
+"""Helpers shared by the readers: opening files safely, bounding sizes, activations."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import SplatFormatError
+
+
+def file_size(path) -> int:
+    """Size of a regular, non-empty file; SplatFormatError for anything else."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise SplatFormatError(path, "no such file") from None
+    except OSError as exc:
+        raise SplatFormatError(path, f"cannot stat: {exc.strerror or exc}") from None
+    if os.path.isdir(path):
+        raise SplatFormatError(path, "is a directory, not a splat file")
+    if not os.path.isfile(path):
+        raise SplatFormatError(path, "is not a regular file")
+    if st.st_size == 0:
+        raise SplatFormatError(path, "file is empty (0 bytes)")
+    return int(st.st_size)
+
+
+def read_bytes(path, limit: int) -> bytes:
+    """The whole file, refusing files larger than limit bytes."""
+    size = file_size(path)
+    if size > limit:
+        raise SplatFormatError(path, f"file is {size} bytes, more than the {limit} this format allows")
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def sigmoid_(x: np.ndarray) -> np.ndarray:
+    """In-place logistic function on a float32 array."""
+    np.negative(x, out=x)
+    np.exp(x, out=x)
+    x += 1.0
+    np.reciprocal(x, out=x)
+    return x
+
+
+def normalize_quats_(q: np.ndarray) -> np.ndarray:
+    """Normalize (N, 4) quaternions in place; zero rows stay zero (validate.py reports them)."""
+    norm = np.sqrt(np.einsum("ij,ij->i", q, q))
+    norm[norm == 0] = 1.0
+    q /= norm[:, None]
+    return q
+
+
+def logit(p: np.ndarray) -> np.ndarray:
+    """Inverse sigmoid in float64, clamped so that 0 and 1 stay finite."""
+    p = np.clip(np.asarray(p, np.float64), 1e-12, 1.0 - 1e-12)
+    return np.log(p / (1.0 - p))

@@ -1,0 +1,157 @@
+"""PLY header parsing and body layout (shared by the INRIA and compressed PLY readers).
+
+Only what splat files use is supported: scalar properties (no lists) in binary
+little/big endian or ascii bodies. Every count is checked against the file size
+before anything is allocated from it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SplatFormatError
+from ._common import file_size
+
+MAX_HEADER = 1 << 20  # a splat header is a few KB; refuse to scan megabytes for end_header
+
+TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+ENCODINGS = {"binary_little_endian": "<", "binary_big_endian": ">", "ascii": "ascii"}
+
+
+@dataclass
+class Element:
+    name: str
+    count: int
+    props: list = field(default_factory=list)  # [(name, numpy type code without byte order)]
+
+    def dtype(self, order: str) -> np.dtype:
+        return np.dtype([(name, order + code) for name, code in self.props])
+
+    def names(self) -> list:
+        return [name for name, _ in self.props]
+
+
+@dataclass
+class Header:
+    encoding: str  # "<", ">" or "ascii"
+    elements: list
+    body_offset: int
+    file_size: int
+
+    def element(self, name: str):
+        return next((e for e in self.elements if e.name == name), None)
+
+
+def _read_header_text(path, size: int) -> tuple[str, int]:
+    with open(path, "rb") as f:
+        head = f.read(min(size, MAX_HEADER))
+    if not head.startswith(b"ply"):
+        raise SplatFormatError(path, "not a PLY file (missing 'ply' magic)")
+    for marker in (b"end_header\r\n", b"end_header\n", b"end_header\r"):
+        end = head.find(marker)
+        if end >= 0:
+            try:
+                return head[:end].decode("ascii"), end + len(marker)
+            except UnicodeDecodeError:
+                raise SplatFormatError(path, "PLY header is not ASCII text") from None
+    raise SplatFormatError(path, "PLY header has no end_header (truncated or not a PLY)")
+
+
+def parse_header(path) -> Header:
+    size = file_size(path)
+    text, body_offset = _read_header_text(path, size)
+    encoding, elements = None, []
+    for lineno, raw in enumerate(text.splitlines()[1:], start=2):
+        words = raw.split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        key = words[0]
+        if key == "format" and len(words) == 3:
+            if words[1] not in ENCODINGS:
+                raise SplatFormatError(path, f"unsupported PLY format {words[1]!r}")
+            encoding = ENCODINGS[words[1]]
+        elif key == "element" and len(words) == 3:
+            try:
+                count = int(words[2])
+            except ValueError:
+                count = -1
+            if count < 0:
+                raise SplatFormatError(path, f"PLY header line {lineno}: bad element count {words[2]!r}")
+            elements.append(Element(words[1], count))
+        elif key == "property" and len(words) >= 3:
+            if not elements:
+                raise SplatFormatError(path, f"PLY header line {lineno}: property before any element")
+            if words[1] == "list":
+                raise SplatFormatError(
+                    path, f"PLY list property {words[-1]!r} in element {elements[-1].name!r} is not supported")
+            if words[1] not in TYPES or len(words) != 3:
+                raise SplatFormatError(path, f"PLY header line {lineno}: bad property {raw.strip()!r}")
+            elements[-1].props.append((words[2], TYPES[words[1]]))
+        else:
+            raise SplatFormatError(path, f"PLY header line {lineno}: cannot parse {raw.strip()!r}")
+    if encoding is None:
+        raise SplatFormatError(path, "PLY header has no format line")
+    header = Header(encoding, elements, body_offset, size)
+    _check_body_size(path, header)
+    return header
+
+
+def _check_body_size(path, header: Header) -> None:
+    """Reject counts the file cannot hold, before any array is sized from them."""
+    available = header.file_size - header.body_offset
+    if header.encoding == "ascii":
+        # every value takes at least one character plus a separator
+        need = sum(e.count * len(e.props) * 2 for e in header.elements)
+        unit = "characters"
+    else:
+        need = sum(e.count * e.dtype("<").itemsize for e in header.elements)
+        unit = "bytes"
+    if need > available:
+        counts = ", ".join(f"{e.count} {e.name}" for e in header.elements)
+        raise SplatFormatError(
+            path, f"truncated: header claims {counts} needing at least {need} {unit}, "
+                  f"but the file holds {available} after the header")
+
+
+def read_body(path, header: Header) -> dict:
+    """Every element as a structured numpy array (binary: one read; ascii: parsed tokens)."""
+    if header.encoding == "ascii":
+        return _read_ascii(path, header)
+    out = {}
+    with open(path, "rb") as f:
+        f.seek(header.body_offset)
+        for e in header.elements:
+            dt = e.dtype(header.encoding)
+            arr = np.fromfile(f, dtype=dt, count=e.count) if e.count else np.zeros(0, dt)
+            if arr.shape[0] != e.count:
+                raise SplatFormatError(path, f"truncated: element {e.name!r} has {arr.shape[0]} of {e.count} rows")
+            out[e.name] = arr
+    return out
+
+
+def _read_ascii(path, header: Header) -> dict:
+    with open(path, "rb") as f:
+        f.seek(header.body_offset)
+        tokens = f.read().split()
+    out, pos = {}, 0
+    for e in header.elements:
+        n = e.count * len(e.props)
+        if pos + n > len(tokens):
+            raise SplatFormatError(path, f"truncated: ascii element {e.name!r} needs {n} values, "
+                                         f"{len(tokens) - pos} remain")
+        try:
+            values = np.array(tokens[pos:pos + n], dtype=np.float64).reshape(e.count, len(e.props))
+        except ValueError:
+            raise SplatFormatError(path, f"ascii element {e.name!r} holds a value that is not a number") from None
+        arr = np.zeros(e.count, e.dtype("<"))
+        for i, name in enumerate(e.names()):
+            arr[name] = values[:, i]
+        out[e.name] = arr
+        pos += n
+    return out

@@ -1,0 +1,110 @@
+"""Count and handle NaN/Inf values and all-zero quaternions in a decoded SplatSet.
+
+Garbage must never reach a renderer silently. Each reader's output goes through
+`check_values`, which counts the bad splats and then, by policy:
+  "fix"   neutralise them in place: a splat with any non-finite value gets finite
+          zeros there and opacity 0 (invisible, but the count and index order stay,
+          which sequences and morphs rely on); a zero quaternion becomes the
+          identity, which is how INRIA's normalize-then-build-matrix path draws it;
+  "drop"  remove them;
+  "error" raise SplatFormatError naming the counts.
+Note: an infinite opacity logit is not "bad": the sigmoid maps it to 0 or 1.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import SplatFormatError
+from .splats import SplatSet
+
+POLICIES = ("fix", "drop", "error")
+_FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
+
+
+@dataclass
+class BadValues:
+    """What check_values found and did."""
+
+    nonfinite: int = 0          # splats with any NaN/Inf value
+    zero_quaternions: int = 0   # splats whose quaternion is all zeros (and otherwise finite)
+    by_field: dict = field(default_factory=dict)  # field name -> splats with a non-finite value there
+    action: str = "fix"
+    dropped: int = 0
+
+    @property
+    def total(self) -> int:
+        return self.nonfinite + self.zero_quaternions
+
+    def summary(self) -> str:
+        if not self.total:
+            return "no NaN/Inf values or zero quaternions"
+        where = ", ".join(f"{k} {v}" for k, v in self.by_field.items() if v)
+        verb = {"fix": "neutralised", "drop": "dropped", "error": "rejected"}[self.action]
+        return (f"{self.nonfinite} splats with NaN/Inf ({where or 'none'}), "
+                f"{self.zero_quaternions} zero quaternions: {verb}")
+
+    def as_dict(self) -> dict:
+        return {"nonfinite": self.nonfinite, "zero_quaternions": self.zero_quaternions,
+                "by_field": dict(self.by_field), "action": self.action, "dropped": self.dropped}
+
+
+def _rows_nonfinite(arr: np.ndarray) -> np.ndarray:
+    """Boolean (N,) mask of rows holding a NaN/Inf. A row sum is cheap and is non-finite
+    whenever a value is; rows it flags (including finite overflow) are checked exactly."""
+    flat = arr.reshape(arr.shape[0], -1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        suspect = ~np.isfinite(flat.sum(axis=1, dtype=np.float32))
+    if suspect.any():
+        idx = np.flatnonzero(suspect)
+        suspect[idx] = ~np.isfinite(flat[idx]).all(axis=1)
+    return suspect
+
+
+def find_bad(splats: SplatSet) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(nonfinite mask, zero-quaternion mask, per-field counts)."""
+    n = splats.count
+    nonfinite = np.zeros(n, bool)
+    by_field = {}
+    for name in _FIELDS:
+        arr = getattr(splats, name)
+        if arr.size == 0:
+            by_field[name] = 0
+            continue
+        mask = _rows_nonfinite(arr)
+        by_field[name] = int(mask.sum())
+        nonfinite |= mask
+    zero_q = ~splats.rotations.any(axis=1) & ~nonfinite
+    return nonfinite, zero_q, by_field
+
+
+def check_values(splats: SplatSet, policy: str = "fix", path=None) -> tuple[SplatSet, BadValues]:
+    if policy not in POLICIES:
+        raise ValueError(f"bad-value policy {policy!r} is not one of {POLICIES}")
+    nonfinite, zero_q, by_field = find_bad(splats)
+    report = BadValues(int(nonfinite.sum()), int(zero_q.sum()), by_field, policy)
+    if not report.total:
+        return splats, report
+    if policy == "error":
+        raise SplatFormatError(path, report.summary())
+    if policy == "drop":
+        report.dropped = report.total
+        return splats.subset(~(nonfinite | zero_q)), report
+    _neutralise(splats, nonfinite, zero_q)
+    return splats, report
+
+
+def _neutralise(splats: SplatSet, nonfinite: np.ndarray, zero_q: np.ndarray) -> None:
+    idx = np.flatnonzero(nonfinite)
+    for name in _FIELDS:
+        arr = getattr(splats, name)
+        rows = arr[idx]
+        rows[~np.isfinite(rows)] = 0.0
+        arr[idx] = rows
+    splats.opacities[idx] = 0.0
+    fixed = splats.rotations[idx]
+    fixed[~fixed.any(axis=1)] = (1.0, 0.0, 0.0, 0.0)
+    fixed /= np.linalg.norm(fixed, axis=1, keepdims=True)
+    splats.rotations[idx] = fixed
+    splats.rotations[zero_q] = (1.0, 0.0, 0.0, 0.0)

@@ -51,11 +51,12 @@ class BadValues:
 
 
 def _rows_nonfinite(arr: np.ndarray) -> np.ndarray:
-    """Boolean (N,) mask of rows holding a NaN/Inf. A row sum is cheap and is non-finite
-    whenever a value is; rows it flags (including finite overflow) are checked exactly."""
+    """Boolean (N,) mask of rows holding a NaN/Inf. A row sum (a BLAS mat-vec with ones,
+    several times faster than isfinite().all()) is non-finite whenever a value is; the
+    rows it flags, including finite sums that overflowed, are checked exactly."""
     flat = arr.reshape(arr.shape[0], -1)
     with np.errstate(over="ignore", invalid="ignore"):
-        suspect = ~np.isfinite(flat.sum(axis=1, dtype=np.float32))
+        suspect = ~np.isfinite(flat @ np.ones(flat.shape[1], flat.dtype))
     if suspect.any():
         idx = np.flatnonzero(suspect)
         suspect[idx] = ~np.isfinite(flat[idx]).all(axis=1)

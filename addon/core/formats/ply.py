@@ -37,10 +37,9 @@ def _block_view(rec: np.ndarray, names) -> np.ndarray | None:
                       offset=start, strides=(rec.dtype.itemsize, first_type.itemsize))
 
 
-def columns(rec: np.ndarray, names, out: np.ndarray | None = None) -> np.ndarray:
-    """Copy the named fields into a contiguous (N, len(names)) float32 array."""
-    if out is None:
-        out = np.empty((rec.shape[0], len(names)), np.float32)
+def columns(rec: np.ndarray, names, dtype=np.float32) -> np.ndarray:
+    """Copy the named fields into a contiguous (N, len(names)) array."""
+    out = np.empty((rec.shape[0], len(names)), dtype)
     view = _block_view(rec, names) if rec.shape[0] else None
     if view is not None:
         np.copyto(out, view, casting="unsafe")
@@ -88,8 +87,8 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
     if missing:
         raise SplatFormatError(path, f"f_rest properties are not numbered 0..{rest_count - 1}: lacks {missing[0]}")
     k = rest_count // 3
-    scales = columns(rec, SCALE)
-    np.exp(scales, out=scales)
+    # exp in float64, rounded once: the writer's float64 log then inverts it to the bit
+    scales = np.exp(columns(rec, SCALE, dtype=np.float64)).astype(np.float32)
     opacities = sigmoid_(columns(rec, ("opacity",))[:, 0])
     return SplatSet(
         positions=columns(rec, POS),

@@ -120,18 +120,18 @@ def _check_body_size(path, header: Header) -> None:
 
 
 def read_body(path, header: Header) -> dict:
-    """Every element as a structured numpy array (binary: one read; ascii: parsed tokens)."""
+    """Every element as a structured numpy array: binary bodies are memory-mapped (read-only,
+    no up-front copy; decoders copy out what they keep), ascii bodies are parsed."""
     if header.encoding == "ascii":
         return _read_ascii(path, header)
-    out = {}
-    with open(path, "rb") as f:
-        f.seek(header.body_offset)
-        for e in header.elements:
-            dt = e.dtype(header.encoding)
-            arr = np.fromfile(f, dtype=dt, count=e.count) if e.count else np.zeros(0, dt)
-            if arr.shape[0] != e.count:
-                raise SplatFormatError(path, f"truncated: element {e.name!r} has {arr.shape[0]} of {e.count} rows")
-            out[e.name] = arr
+    out, offset = {}, header.body_offset
+    for e in header.elements:
+        dt = e.dtype(header.encoding)
+        if e.count:
+            out[e.name] = np.memmap(path, dtype=dt, mode="r", offset=offset, shape=(e.count,))
+        else:
+            out[e.name] = np.zeros(0, dt)
+        offset += e.count * dt.itemsize
     return out
 
 

@@ -1,0 +1,59 @@
+"""Synthetic splat sets and INRIA PLY variants, for tests and benchmarks.
+
+`write_ply_variant` writes the same splats with any property order, type, byte
+order or ascii body, with or without normals and extra properties, so the
+reader's tolerance of real-world layouts can be tested without shipping files.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..splats import SplatSet
+from .ply import encode_vertices
+
+
+def random_splats(n: int, degree: int = 3, seed: int = 0) -> SplatSet:
+    """Plausible capture-like values: positions in a few metres, small scales."""
+    rng = np.random.default_rng(seed)
+    s = SplatSet.allocate(n, degree)
+    s.positions[:] = rng.normal(0.0, 2.0, (n, 3))
+    s.scales[:] = np.exp(rng.uniform(-6.0, -1.0, (n, 3)))
+    q = rng.normal(size=(n, 4))
+    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    s.opacities[:] = 1.0 / (1.0 + np.exp(-rng.normal(0.0, 2.0, n)))
+    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
+    s.sh_rest[:] = rng.normal(0.0, 0.1, s.sh_rest.shape)
+    return s
+
+
+def write_ply_variant(path, splats: SplatSet, encoding: str = "<", prop_type: str = "float",
+                      order=None, normals: bool = True, extra=()) -> np.ndarray:
+    """Write INRIA records as a PLY with the given layout; returns the raw records written.
+
+    encoding: "<", ">" or "ascii"; prop_type: "float", "double" or "uchar" (uchar stores
+    the raw values rounded and clipped to 0..255); order: property names in file order
+    (default: standard); extra: names of unknown float properties to add (filled with 7).
+    """
+    base = encode_vertices(splats)
+    names = list(order) if order is not None else list(base.dtype.names)
+    if not normals:
+        names = [n for n in names if n not in ("nx", "ny", "nz")]
+    names += list(extra)
+    code = {"float": "f4", "double": "f8", "uchar": "u1"}[prop_type]
+    byte_order = ">" if encoding == ">" else "<"
+    rec = np.zeros(splats.count, [(n, byte_order + code) for n in names])
+    for n in names:
+        values = base[n] if n in base.dtype.names else np.full(splats.count, 7.0)
+        rec[n] = np.clip(np.round(values), 0, 255) if code == "u1" else values
+    fmt = {"<": "binary_little_endian", ">": "binary_big_endian", "ascii": "ascii"}[encoding]
+    header = ["ply", f"format {fmt} 1.0", f"element vertex {splats.count}"]
+    header += [f"property {prop_type} {n}" for n in names] + ["end_header", ""]
+    with open(path, "wb") as f:
+        f.write("\n".join(header).encode("ascii"))
+        if encoding == "ascii":
+            # 9 digits round-trip float32, 17 round-trip float64
+            text_format = {"u1": "%d", "f4": "%.9g", "f8": "%.17g"}[code]
+            np.savetxt(f, rec.view((rec.dtype[0], len(names))) if len(names) else rec, fmt=text_format)
+        else:
+            rec.tofile(f)
+    return rec

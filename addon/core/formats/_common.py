@@ -35,7 +35,7 @@ def read_bytes(path, limit: int) -> bytes:
 
 
 def sigmoid_(x: np.ndarray) -> np.ndarray:
-    """In-place logistic function on a float32 array."""
+    """In-place logistic function."""
     np.negative(x, out=x)
     np.exp(x, out=x)
     x += 1.0

@@ -1,0 +1,181 @@
+// Splatline: the splat math, written once, shared by both GPU paths.
+//
+// Plain GLSL 3.30-compatible functions and constants: no #version, no in/out/uniform/buffer
+// declarations, no SSBOs, no compute builtins. The offscreen renderer (moderngl, addon/gl)
+// and the viewport (Blender gpu module) prepend/append their own stage code.
+// Semantics: ../docs and DESIGN.md "Rendering semantics" (INRIA forward pass).
+//
+// Conventions: camera space is Blender's (looks down -z, +y up). Image space is in pixels,
+// origin top-left, y down, pixel centres at +0.5: u = cx + fx*x/-z, v = cy - fy*y/-z.
+
+const float SL_SH_C0 = 0.28209479177387814;
+const float SL_SH_C1 = 0.4886025119029199;
+const float SL_SH_C2_0 = 1.0925484305920792;
+const float SL_SH_C2_1 = -1.0925484305920792;
+const float SL_SH_C2_2 = 0.31539156525252005;
+const float SL_SH_C2_3 = -1.0925484305920792;
+const float SL_SH_C2_4 = 0.5462742152960396;
+const float SL_SH_C3_0 = -0.5900435899266435;
+const float SL_SH_C3_1 = 2.890611442640554;
+const float SL_SH_C3_2 = -0.4570457994644658;
+const float SL_SH_C3_3 = 0.3731763325901154;
+const float SL_SH_C3_4 = -0.4570457994644658;
+const float SL_SH_C3_5 = 1.445305721320277;
+const float SL_SH_C3_6 = -0.5900435899266435;
+
+const float SL_LOWPASS = 0.3;            // px^2 added to the 2D covariance diagonal
+const float SL_ALPHA_MIN = 1.0 / 255.0;  // fragments below this are dropped
+const float SL_ALPHA_MAX = 0.99;
+const float SL_FRUSTUM_SLACK = 1.3;      // J is built from t/z clamped to 1.3 tan(fov/2)
+// A projected axis longer than this many pixels is shortened to it. On any frame up to
+// 16384 px the Gaussian is then flat to within exp(-0.5*(2.4e4/1e7)^2) ~ 1 - 3e-6, and the
+// 2D covariance stays far from float32 overflow (scales 1e6 at depth 0.2 would reach 1e36).
+const float SL_MAX_AXIS_PX = 1.0e7;
+
+bool sl_is_finite(float x) { return !(isnan(x) || isinf(x)); }
+bool sl_is_finite3(vec3 v) { return sl_is_finite(v.x) && sl_is_finite(v.y) && sl_is_finite(v.z); }
+bool sl_is_finite4(vec4 v) { return sl_is_finite3(v.xyz) && sl_is_finite(v.w); }
+
+// Rotation matrix (columns) of a quaternion (w, x, y, z). Not necessarily normalized:
+// it is rescaled by its largest component first so tiny quaternions do not underflow.
+// A zero quaternion gives the identity (NaN quaternions must be culled by the caller).
+mat3 sl_quat_to_mat(vec4 q)
+{
+    float m = max(max(abs(q.x), abs(q.y)), max(abs(q.z), abs(q.w)));
+    if (!(m > 0.0)) return mat3(1.0);
+    q /= m;
+    q *= inversesqrt(dot(q, q));
+    float w = q.x, x = q.y, y = q.z, z = q.w;
+    return mat3(
+        vec3(1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)),
+        vec3(2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + w * x)),
+        vec3(2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)));
+}
+
+// The splat's principal axes in camera space, each scaled by its linear scale:
+// Sigma_cam = A A^T with A = cam_from_local * R * diag(scale). cam_from_local may hold
+// the object's own (non-uniform) scale.
+mat3 sl_axes_camera(mat3 cam_from_local, vec4 quat_wxyz, vec3 scale)
+{
+    mat3 r = cam_from_local * sl_quat_to_mat(quat_wxyz);
+    return mat3(r[0] * scale.x, r[1] * scale.y, r[2] * scale.z);
+}
+
+// Pixel position of a camera-space point (perspective or orthographic).
+vec2 sl_project_point(vec3 t, vec4 focal_centre, bool ortho)
+{
+    vec2 f = focal_centre.xy, c = focal_centre.zw;
+    if (ortho) return vec2(c.x + f.x * t.x, c.y - f.y * t.y);
+    float d = -t.z;
+    return vec2(c.x + f.x * t.x / d, c.y - f.y * t.y / d);
+}
+
+// Jacobian d(u, v)/d(x, y, z) at camera-space point t (mat3x2: 3 columns, 2 rows).
+// Perspective: t.x/-z and t.y/-z are clamped to +-1.3 tan(fov/2) here only (INRIA),
+// never for the centre itself.
+mat3x2 sl_jacobian(vec3 t, vec2 focal, vec2 tan_half_fov, bool ortho)
+{
+    if (ortho) return mat3x2(vec2(focal.x, 0.0), vec2(0.0, -focal.y), vec2(0.0));
+    float d = -t.z;
+    vec2 lim = SL_FRUSTUM_SLACK * tan_half_fov;
+    vec2 txy = clamp(t.xy / d, -lim, lim);  // = clamped t.xy / d
+    return mat3x2(
+        vec2(focal.x / d, 0.0),
+        vec2(0.0, -focal.y / d),
+        vec2(focal.x * txy.x / d, -focal.y * txy.y / d));
+}
+
+// 2D covariance (a, b, c) = [[a, b], [b, c]] before the low-pass, and its determinant in w.
+// Built from the projected axes m_k = J * axis_k: Sigma' = sum m_k m_k^T, and
+// det by Cauchy-Binet (sum of squared 2x2 minors), which never cancels for needles/discs.
+vec4 sl_cov2d(mat3 axes_cam, mat3x2 jac)
+{
+    vec2 m0 = jac * axes_cam[0], m1 = jac * axes_cam[1], m2 = jac * axes_cam[2];
+    float l0 = length(m0), l1 = length(m1), l2 = length(m2);
+    if (l0 > SL_MAX_AXIS_PX) m0 *= SL_MAX_AXIS_PX / l0;
+    if (l1 > SL_MAX_AXIS_PX) m1 *= SL_MAX_AXIS_PX / l1;
+    if (l2 > SL_MAX_AXIS_PX) m2 *= SL_MAX_AXIS_PX / l2;
+    float a = m0.x * m0.x + m1.x * m1.x + m2.x * m2.x;
+    float b = m0.x * m0.y + m1.x * m1.y + m2.x * m2.y;
+    float c = m0.y * m0.y + m1.y * m1.y + m2.y * m2.y;
+    float k01 = m0.x * m1.y - m1.x * m0.y;
+    float k02 = m0.x * m2.y - m2.x * m0.y;
+    float k12 = m1.x * m2.y - m2.x * m1.y;
+    return vec4(a, b, c, k01 * k01 + k02 * k02 + k12 * k12);
+}
+
+// Low-pass filter, conic and largest eigenvalue. cov is sl_cov2d's result.
+// Returns false where the splat must be culled (det <= 0 or non-finite).
+// opacity is multiplied by gsplat's compensation sqrt(det/det_lowpass) when antialiased.
+bool sl_conic(vec4 cov, bool antialiased, inout float opacity, out vec3 conic, out float lambda_max)
+{
+    float a = cov.x + SL_LOWPASS, b = cov.y, c = cov.z;
+    // det(S + 0.3 I) = det(S) + 0.3 tr(S) + 0.09: a sum of non-negative terms.
+    float det = cov.w + SL_LOWPASS * (cov.x + cov.z) + SL_LOWPASS * SL_LOWPASS;
+    conic = vec3(0.0);
+    lambda_max = 0.0;
+    if (!(det > 0.0) || !sl_is_finite(det) || !sl_is_finite3(cov.xyz)) return false;
+    if (antialiased) opacity *= sqrt(max(cov.w, 0.0) / det);
+    conic = vec3(c, -b, a) / det;
+    float mid = 0.5 * (a + c);
+    // mid^2 - det rewritten as ((a-c)/2)^2 + b^2: no cancellation for round splats.
+    float h = 0.5 * (a - c);
+    lambda_max = mid + sqrt(max(0.1, h * h + b * b));
+    return sl_is_finite3(conic) && sl_is_finite(lambda_max);
+}
+
+// Quad half-extent in standard deviations: 3, or gsplat's opacity-aware
+// min(3, sqrt(2 ln(255 o))), the radius where o * exp(-r^2/2) falls to 1/255.
+float sl_extent_sigma(float opacity, bool opacity_aware)
+{
+    if (!opacity_aware) return 3.0;
+    return min(3.0, sqrt(2.0 * log(max(255.0 * opacity, 1.0))));
+}
+
+// Half-size in pixels of the screen-aligned square quad.
+float sl_quad_radius(float lambda_max, float opacity, bool opacity_aware)
+{
+    return sl_extent_sigma(opacity, opacity_aware) * sqrt(lambda_max);
+}
+
+// View-dependent colour before the clamp: C0*dc + bands 1..degree + 0.5.
+// dir: unit vector from the camera to the centre, in the splat object's local frame.
+// rest[k]: higher coefficient k (k = 0..14) for r, g, b; only the first (deg+1)^2-1 are read.
+vec3 sl_sh_color(vec3 dir, int degree, vec3 dc, vec3 rest[15])
+{
+    vec3 result = SL_SH_C0 * dc;
+    if (degree > 0) {
+        float x = dir.x, y = dir.y, z = dir.z;
+        result += -SL_SH_C1 * y * rest[0] + SL_SH_C1 * z * rest[1] - SL_SH_C1 * x * rest[2];
+        if (degree > 1) {
+            float xx = x * x, yy = y * y, zz = z * z, xy = x * y, yz = y * z, xz = x * z;
+            result += SL_SH_C2_0 * xy * rest[3] + SL_SH_C2_1 * yz * rest[4]
+                + SL_SH_C2_2 * (2.0 * zz - xx - yy) * rest[5]
+                + SL_SH_C2_3 * xz * rest[6] + SL_SH_C2_4 * (xx - yy) * rest[7];
+            if (degree > 2) {
+                result += SL_SH_C3_0 * y * (3.0 * xx - yy) * rest[8]
+                    + SL_SH_C3_1 * xy * z * rest[9]
+                    + SL_SH_C3_2 * y * (4.0 * zz - xx - yy) * rest[10]
+                    + SL_SH_C3_3 * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * rest[11]
+                    + SL_SH_C3_4 * x * (4.0 * zz - xx - yy) * rest[12]
+                    + SL_SH_C3_5 * z * (xx - yy) * rest[13]
+                    + SL_SH_C3_6 * x * (xx - 3.0 * yy) * rest[14];
+            }
+        }
+    }
+    return result + 0.5;
+}
+
+// The object's colour matrix (3x3 + offset, applied after +0.5), then the clamp at 0.
+vec3 sl_grade_color(vec3 sh_color, mat3 color_linear, vec3 color_offset)
+{
+    return max(color_linear * sh_color + color_offset, vec3(0.0));
+}
+
+// Fragment alpha at offset d = pixel centre - splat centre (pixels):
+// min(0.99, o * exp(-1/2 d^T conic d)). The caller drops results below SL_ALPHA_MIN.
+float sl_alpha(vec2 d, vec3 conic, float opacity)
+{
+    float power = conic.x * d.x * d.x + 2.0 * conic.y * d.x * d.y + conic.z * d.y * d.y;
+    return min(SL_ALPHA_MAX, opacity * exp(-0.5 * max(power, 0.0)));
+}

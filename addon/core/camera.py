@@ -79,3 +79,61 @@ def simple_camera(width: int, height: int, fov_x_deg: float, world_to_camera,
     fx = width / (2.0 * np.tan(np.radians(fov_x_deg) / 2.0))
     return Camera(np.asarray(world_to_camera, np.float64), width, height, fx, fx,
                   width / 2.0, height / 2.0, near, far)
+
+
+SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
+
+
+def render_size(resolution_x: int, resolution_y: int, percentage: int = 100) -> tuple[int, int]:
+    """Pixel size of the rendered frame, rounded the way Blender does (integer division)."""
+    return (int(resolution_x) * int(percentage)) // 100, (int(resolution_y) * int(percentage)) // 100
+
+
+def camera_from_params(world_to_camera, *, resolution_x: int, resolution_y: int,
+                       percentage: int = 100, ortho: bool = False, lens: float = 50.0,
+                       ortho_scale: float = 6.0, sensor_width: float = 36.0,
+                       sensor_height: float = 24.0, sensor_fit: str = "AUTO",
+                       shift_x: float = 0.0, shift_y: float = 0.0,
+                       clip_start: float = 0.1, clip_end: float = 1000.0,
+                       pixel_aspect_x: float = 1.0, pixel_aspect_y: float = 1.0) -> Camera:
+    """The exact projection Blender renders with (BKE_camera_params_compute_viewplane).
+
+    Blender sizes the view plane from one "fit" dimension: the sensor (or the ortho
+    scale) spans `viewfac` pixels, where viewfac is the frame width for a horizontal
+    fit and the height times ycor (= pixel_aspect_y / pixel_aspect_x) for a vertical
+    one. AUTO fits whichever side is larger in aspect-corrected pixels, and uses
+    sensor_width for it either way. Shifts are in units of viewfac. A pixel is ycor
+    units tall for 1 unit wide, so fy = fx / ycor.
+    """
+    if sensor_fit not in SENSOR_FITS:
+        raise ValueError(f"sensor_fit {sensor_fit!r} is not one of {SENSOR_FITS}")
+    width, height = render_size(resolution_x, resolution_y, percentage)
+    if width < 1 or height < 1:
+        raise ValueError(f"render size {width}x{height} is empty")
+    ycor = float(pixel_aspect_y) / float(pixel_aspect_x)
+    if sensor_fit == "AUTO":
+        horizontal = pixel_aspect_x * width >= pixel_aspect_y * height
+    else:
+        horizontal = sensor_fit == "HORIZONTAL"
+    viewfac = float(width) if horizontal else ycor * height
+    if ortho:
+        fx = viewfac / float(ortho_scale)
+    else:
+        sensor = sensor_height if sensor_fit == "VERTICAL" else sensor_width
+        fx = float(lens) * viewfac / float(sensor)
+    fy = fx / ycor
+    cx = width / 2.0 - shift_x * viewfac
+    cy = height / 2.0 + shift_y * viewfac / ycor
+    return Camera(np.asarray(world_to_camera, np.float64), width, height, fx, fy, cx, cy,
+                  float(clip_start), float(clip_end), bool(ortho))
+
+
+def rigid_inverse(camera_to_world) -> np.ndarray:
+    """world_to_camera from a camera's world matrix with its scale removed.
+
+    Blender renders from the camera matrix with each axis normalised (normalize_m4),
+    so a scaled camera object sees the same picture as an unscaled one.
+    """
+    m = np.array(camera_to_world, np.float64)
+    m[:3, :3] /= np.linalg.norm(m[:3, :3], axis=0)
+    return np.linalg.inv(m)

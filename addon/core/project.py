@@ -1,0 +1,193 @@
+"""Per-splat preprocessing in float64, vectorised over splats: the reference's
+projection, shared with test oracles. INRIA's forward pass (preprocessCUDA) with
+Blender's camera; see ../../../shared/DESIGN.md "Rendering semantics".
+
+Conventions and the choices the renderers must agree on:
+- Everything is computed camera-relative: the object-to-camera matrix is
+  composed in float64 first, so a capture 1e6 from the origin with the camera
+  beside it loses nothing to the large translation.
+- Screen space is INRIA's: x right, y down, z forward (Blender's camera looks
+  down -z with +y up, so x' = x, y' = -y, z' = -z). u = cx + fx x'/z'.
+- J's clamp: INRIA clamps x/z and y/z to +-1.3 tan(fov/2). Generalised to
+  shifted cameras as the same margin around the actual frame: u and v of the
+  point used in J are clamped to [-0.15 W, 1.15 W] and [-0.15 H, 1.15 H]
+  pixels. For an unshifted camera this is exactly INRIA's clamp.
+- Culled (valid = False): centre depth <= near or > far, opacity < 1/255 (no
+  pixel could reach the 1/255 cut), zero/NaN quaternion, det <= 0, and any
+  non-finite value in the inputs or results.
+- Extent (in sigmas): 3, or min(3, sqrt(2 ln(255 o))) when opacity-aware. A
+  pixel belongs to the splat iff its Mahalanobis distance is within the extent;
+  `radius` (pixels, from the larger eigenvalue) bounds that ellipse.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera import Camera
+from .scene import RenderItem
+from .sh import sh_to_rgb
+
+LOW_PASS = 0.3          # px^2 added to the 2D covariance's diagonal
+ALPHA_MIN = 1.0 / 255.0
+J_CLAMP_MARGIN = 0.15   # fraction of the frame, beyond each edge (INRIA's 1.3 tan(fov/2))
+_FLIP = np.diag([1.0, -1.0, -1.0])  # Blender camera -> INRIA screen axes
+
+
+@dataclass
+class Projected:
+    """Arrays over the item's splats (N). Rows with valid = False hold junk."""
+
+    means2d: np.ndarray  # (N, 2) pixel centre u, v (top-left origin, y down)
+    cov2d: np.ndarray    # (N, 3) a, b, c of the 2D covariance incl. low-pass, px^2
+    conic: np.ndarray    # (N, 3) inverse of cov2d: A, B, C; power = -(A dx^2 + C dy^2)/2 - B dx dy
+    opacity: np.ndarray  # (N,) opacity * opacity_scale (* antialias compensation)
+    rgb: np.ndarray      # (N, 3) colour after the colour matrix, clamped at 0
+    depth: np.ndarray    # (N,) view-space depth of the centre (-z)
+    extent: np.ndarray   # (N,) half-extent in sigmas (Mahalanobis cut)
+    radius: np.ndarray   # (N,) half-extent in pixels along the major axis (float)
+    valid: np.ndarray    # (N,) bool
+
+    @property
+    def count(self) -> int:
+        return int(self.valid.shape[0])
+
+
+def quat_to_matrix(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 4) wxyz -> (N, 3, 3) rotations of the normalised quaternions, and a mask
+    of the usable ones (non-zero, finite norm)."""
+    q = np.asarray(q, np.float64)
+    norm = np.linalg.norm(q, axis=1)
+    ok = np.isfinite(norm) & (norm > 0)
+    q = q / np.where(ok, norm, 1.0)[:, None]
+    w, x, y, z = q.T
+    r = np.empty((q.shape[0], 3, 3))
+    r[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    r[:, 0, 1] = 2 * (x * y - w * z)
+    r[:, 0, 2] = 2 * (x * z + w * y)
+    r[:, 1, 0] = 2 * (x * y + w * z)
+    r[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    r[:, 1, 2] = 2 * (y * z - w * x)
+    r[:, 2, 0] = 2 * (x * z - w * y)
+    r[:, 2, 1] = 2 * (y * z + w * x)
+    r[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return r, ok
+
+
+def object_to_camera(item: RenderItem, camera: Camera) -> np.ndarray:
+    """(4, 4) float64 matrix from the item's local frame to Blender camera space."""
+    return np.asarray(camera.world_to_camera, np.float64) @ np.asarray(item.world, np.float64)
+
+
+def local_view_dirs(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> np.ndarray:
+    """Unit view directions (camera -> centre) in the item's local frame.
+
+    Perspective: normalize(centre - camera position), both local. Orthographic:
+    the camera's forward axis taken into the local frame. With a non-rigid
+    object matrix, local directions are A^-1 times world directions.
+    """
+    world = np.asarray(item.world, np.float64)
+    with np.errstate(all="ignore"):
+        inv = np.linalg.pinv(world)  # singular (zero-scale) objects give junk, culled later
+        if camera.ortho:
+            fwd_world = -np.linalg.inv(camera.world_to_camera)[:3, 2]
+            d = np.broadcast_to(inv[:3, :3] @ fwd_world, pos_local.shape)
+        else:
+            eye = inv[:3, :3] @ camera.position + inv[:3, 3]
+            d = pos_local - eye
+        return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _jacobian(t: np.ndarray, camera: Camera) -> np.ndarray:
+    """(N, 2, 3) d(u, v)/d(x', y', z') at camera-space centres t (INRIA axes)."""
+    n = t.shape[0]
+    j = np.zeros((n, 2, 3))
+    if camera.ortho:
+        j[:, 0, 0], j[:, 1, 1] = camera.fx, camera.fy
+        return j
+    z = t[:, 2]
+    mx, my = J_CLAMP_MARGIN * camera.width, J_CLAMP_MARGIN * camera.height
+    lo_x, hi_x = (-mx - camera.cx) / camera.fx, (camera.width + mx - camera.cx) / camera.fx
+    lo_y, hi_y = (-my - camera.cy) / camera.fy, (camera.height + my - camera.cy) / camera.fy
+    tx = np.clip(t[:, 0] / z, lo_x, hi_x)
+    ty = np.clip(t[:, 1] / z, lo_y, hi_y)
+    j[:, 0, 0] = camera.fx / z
+    j[:, 0, 2] = -camera.fx * tx / z
+    j[:, 1, 1] = camera.fy / z
+    j[:, 1, 2] = -camera.fy * ty / z
+    return j
+
+
+def _covariance_2d(g: np.ndarray, s: np.ndarray):
+    """2D covariance of M = G diag(s) (M M^T), with its determinant computed
+    from 2x2 minors (Cauchy-Binet): sum_{i<j} (s_i s_j g_ij)^2 never cancels,
+    so needles and discs with anisotropy 1e8 keep an accurate, positive det."""
+    m = g * s[:, None, :]
+    a = np.einsum("nk,nk->n", m[:, 0], m[:, 0])
+    b = np.einsum("nk,nk->n", m[:, 0], m[:, 1])
+    c = np.einsum("nk,nk->n", m[:, 1], m[:, 1])
+    det = np.zeros_like(a)
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        minor = g[:, 0, i] * g[:, 1, j] - g[:, 0, j] * g[:, 1, i]
+        det += (minor * s[:, i] * s[:, j]) ** 2
+    return a, b, c, det
+
+
+def extent_sigmas(opacity: np.ndarray, opacity_aware: bool) -> np.ndarray:
+    """Half-extent in sigmas: 3, or where alpha falls to 1/255 if that is nearer."""
+    three = np.full(opacity.shape, 3.0)
+    if not opacity_aware:
+        return three
+    with np.errstate(all="ignore"):
+        cut = np.sqrt(np.maximum(2.0 * np.log(255.0 * opacity), 0.0))
+    return np.minimum(three, cut)
+
+
+def project(item: RenderItem, camera: Camera, antialiased: bool = False,
+            opacity_aware_extent: bool = True) -> Projected:
+    """Project one item's splats for `camera` (float64, per DESIGN.md)."""
+    sp = item.splats
+    with np.errstate(all="ignore"):
+        o2c = object_to_camera(item, camera)
+        lin = _FLIP @ o2c[:3, :3]
+        pos = sp.positions.astype(np.float64)
+        t = pos @ lin.T + _FLIP @ o2c[:3, 3]
+        depth = t[:, 2]
+        rot, q_ok = quat_to_matrix(sp.rotations)
+        g = np.matmul(_jacobian(t, camera) @ lin, rot)
+        s = sp.scales.astype(np.float64) * float(item.splat_scale)
+        a0, b, c0, det0 = _covariance_2d(g, s)
+        a, c = a0 + LOW_PASS, c0 + LOW_PASS
+        det = det0 + LOW_PASS * (a0 + c0) + LOW_PASS * LOW_PASS
+        conic = np.stack([c, -b, a], axis=1) / det[:, None]
+        opacity = sp.opacities.astype(np.float64) * float(item.opacity_scale)
+        if antialiased:
+            opacity = opacity * np.sqrt(np.maximum(det0 / det, 0.0))
+        extent = extent_sigmas(opacity, opacity_aware_extent)
+        # lambda_max = mid + sqrt(max(0.1, mid^2 - det)); mid^2 - det written without cancellation
+        lam = 0.5 * (a + c) + np.sqrt(np.maximum(0.1, 0.25 * (a - c) ** 2 + b * b))
+        radius = extent * np.sqrt(lam)
+        if camera.ortho:
+            means = np.stack([camera.cx + camera.fx * t[:, 0], camera.cy + camera.fy * t[:, 1]], 1)
+        else:
+            means = np.stack([camera.cx + camera.fx * t[:, 0] / depth,
+                              camera.cy + camera.fy * t[:, 1] / depth], 1)
+        rgb = _colours(item, camera, pos)
+    valid = (q_ok & (depth > camera.near) & (depth <= camera.far) & (det > 0)
+             & (opacity >= ALPHA_MIN) & np.isfinite(radius) & np.isfinite(det)
+             & np.isfinite(means).all(1) & np.isfinite(conic).all(1)
+             & np.isfinite(rgb).all(1) & np.isfinite(opacity))
+    return Projected(means, np.stack([a, b, c], 1), conic, opacity, rgb, depth, extent,
+                     radius, valid)
+
+
+def _colours(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> np.ndarray:
+    """SH colour in the local frame, then the colour matrix, clamped at 0."""
+    degree = item.effective_sh_degree
+    sp = item.splats
+    dirs = local_view_dirs(item, camera, pos_local) if degree > 0 else np.zeros_like(pos_local)
+    rgb = sh_to_rgb(sp.sh_dc.astype(np.float64), sp.sh_rest.astype(np.float64), dirs, degree)
+    cm = np.asarray(item.color_matrix, np.float64)
+    rgb = rgb @ cm[:, :3].T + cm[:, 3]
+    return np.maximum(rgb, 0.0)

@@ -26,7 +26,7 @@ bench: $(STAMP)
 	$(PY) -m bench
 
 extension: $(STAMP)
-	$(PY) -m addon.build_extension
+	bash .ci/build_extension.sh $(PY)
 
 sysdeps:
 	@bash .ci/sysdeps.sh

@@ -1,0 +1,62 @@
+"""Vectorised wxyz quaternion helpers (float64 in, float32 out where data is stored)."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def from_matrix(m: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) rotation matrices -> (N, 4) unit wxyz quaternions with w >= 0.
+
+    Shepperd's method: pick the largest of w, x, y, z to divide by, so no branch
+    loses precision near 180-degree rotations.
+    """
+    m = np.asarray(m, np.float64)
+    trace = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    diag = np.stack([trace, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
+    pick = np.argmax(diag, axis=1)
+    q = np.empty((m.shape[0], 4))
+    for case in range(4):
+        sel = pick == case
+        if sel.any():
+            q[sel] = _from_matrix_case(m[sel], case)
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q[q[:, 0] < 0] *= -1
+    return q
+
+
+def _from_matrix_case(m: np.ndarray, case: int) -> np.ndarray:
+    d0, d1, d2 = m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]
+    if case == 0:
+        s = 2.0 * np.sqrt(1.0 + d0 + d1 + d2)
+        return np.stack([0.25 * s, (m[:, 2, 1] - m[:, 1, 2]) / s,
+                         (m[:, 0, 2] - m[:, 2, 0]) / s, (m[:, 1, 0] - m[:, 0, 1]) / s], axis=1)
+    if case == 1:
+        s = 2.0 * np.sqrt(1.0 + d0 - d1 - d2)
+        return np.stack([(m[:, 2, 1] - m[:, 1, 2]) / s, 0.25 * s,
+                         (m[:, 0, 1] + m[:, 1, 0]) / s, (m[:, 0, 2] + m[:, 2, 0]) / s], axis=1)
+    if case == 2:
+        s = 2.0 * np.sqrt(1.0 - d0 + d1 - d2)
+        return np.stack([(m[:, 0, 2] - m[:, 2, 0]) / s, (m[:, 0, 1] + m[:, 1, 0]) / s,
+                         0.25 * s, (m[:, 1, 2] + m[:, 2, 1]) / s], axis=1)
+    s = 2.0 * np.sqrt(1.0 - d0 - d1 + d2)
+    return np.stack([(m[:, 1, 0] - m[:, 0, 1]) / s, (m[:, 0, 2] + m[:, 2, 0]) / s,
+                     (m[:, 1, 2] + m[:, 2, 1]) / s, 0.25 * s], axis=1)
+
+
+def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product a*b of (..., 4) wxyz quaternions (b applied first)."""
+    aw, ax, ay, az = np.moveaxis(np.asarray(a), -1, 0)
+    bw, bx, by, bz = np.moveaxis(np.asarray(b), -1, 0)
+    return np.stack([
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    ], axis=-1)
+
+
+def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Unit axis (..., 3) and angle (...) in radians -> (..., 4) wxyz."""
+    half = 0.5 * np.asarray(angle)
+    s = np.sin(half)[..., None]
+    return np.concatenate([np.cos(half)[..., None], np.asarray(axis) * s], axis=-1)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from ..errors import SplatFormatError
 from ..select import select
-from ..splats import SplatSet
+from ..splats import AXES, SplatSet
 from ..validate import BadValues, check_values
 from ._common import file_size
 
@@ -67,19 +67,26 @@ def _reader(fmt: str):
 
 
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
-                     format=None) -> tuple[SplatSet, ReadReport]:
-    """Decode a file, handle bad values by policy `bad`, then apply the import options."""
+                     format=None, axes=None) -> tuple[SplatSet, ReadReport]:
+    """Decode a file, handle bad values by policy `bad` ("fix", "drop", "error"), then apply
+    the import options. `axes` overrides the file's axis convention (e.g. "RUB" for an spz
+    written by Niantic's own tools); `format` skips detection."""
     fmt = format or detect_format(path)
+    if axes is not None and axes not in AXES:
+        raise ValueError(f"axes {axes!r} is not one of {AXES}")
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
     splats = _reader(fmt)(path, max_degree=max_degree)
+    if axes is not None:
+        splats.axes = axes
     report = ReadReport(os.fspath(path), fmt, splats.count, splats.sh_degree)
     splats, report.bad = check_values(splats, bad, path)
     splats = select(splats, sh_degree, min_opacity, max_count)
     return splats.check(), report
 
 
-def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", format=None) -> SplatSet:
-    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format)[0]
+def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", format=None,
+         axes=None) -> SplatSet:
+    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format, axes)[0]
 
 
 def format_for_output(path) -> str:

@@ -1,9 +1,179 @@
-"""(placeholder until its owner fills it in)."""
+"""File > Import / Export > Gaussian Splats, and the drag-and-drop FileHandler."""
+from __future__ import annotations
+
+import os
+
+import bpy
+from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper, poll_file_object_drop
+
+from ..core.errors import SplatFormatError
+from .import_splats import export_object, import_file_with_report, object_axes
+from .pointcloud import is_splat_data
+
+_AXES_ENUM = [
+    ("AUTO", "From File", "Use the file format's convention (3DGS/COLMAP .ply/.splat: y down, z forward; .spz: y up)"),
+    ("RDF", "Y Down, Z Forward", "3DGS / COLMAP camera frame"),
+    ("RUB", "Y Up, Z Back", "OpenGL-like frame, as in .spz"),
+    ("RFU", "Z Up (Blender)", "No rotation"),
+]
+_BAD_ENUM = [
+    ("fix", "Neutralise", "Splats with NaN/Inf values become invisible; zero quaternions become identity"),
+    ("drop", "Drop", "Remove splats with NaN/Inf values or zero quaternions"),
+    ("error", "Refuse File", "Refuse a file holding any NaN/Inf value or zero quaternion"),
+]
+
+
+class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
+    """Import Gaussian splat captures as PointCloud objects"""
+
+    bl_idname = "import_scene.splatline_gaussians"
+    bl_label = "Gaussian Splats (.ply, .splat, .spz)"
+    bl_options = {"REGISTER", "UNDO", "PRESET"}
+
+    filter_glob: StringProperty(default="*.ply;*.splat;*.spz", options={"HIDDEN"})
+    directory: StringProperty(subtype="DIR_PATH", options={"SKIP_SAVE", "HIDDEN"})
+    files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"SKIP_SAVE", "HIDDEN"})
+
+    max_sh_degree: IntProperty(name="Max SH Degree", default=3, min=0, max=3,
+                               description="Keep spherical harmonics up to this degree; higher bands are not stored")
+    min_opacity: FloatProperty(name="Min Opacity", default=0.0, min=0.0, max=1.0,
+                               description="Drop splats less opaque than this")
+    max_count: IntProperty(name="Max Splats", default=0, min=0,
+                           description="Keep at most this many splats, the most important first (0: all)")
+    axes: EnumProperty(name="Axes", items=_AXES_ENUM, default="AUTO",
+                       description="Axis convention of the file, applied as the object's rotation")
+    bad_values: EnumProperty(name="Bad Values", items=_BAD_ENUM, default="fix",
+                             description="What to do with splats holding NaN/Inf values or zero quaternions")
+
+    def paths(self) -> list[str]:
+        names = [f.name for f in self.files if f.name]
+        if names and self.directory:
+            return [os.path.join(self.directory, name) for name in names]
+        return [self.filepath] if self.filepath else []
+
+    def invoke(self, context, event):
+        return self.invoke_popup(context)
+
+    def execute(self, context):
+        paths = self.paths()
+        if not paths:
+            self.report({"ERROR"}, "no file given")
+            return {"CANCELLED"}
+        for obj in context.view_layer.objects if context.view_layer else ():
+            obj.select_set(False)
+        wm = context.window_manager
+        wm.progress_begin(0, len(paths))
+        imported, errors = [], []
+        try:
+            for i, path in enumerate(paths):
+                try:
+                    obj, report = import_file_with_report(
+                        context, path, max_sh_degree=self.max_sh_degree, min_opacity=self.min_opacity,
+                        max_count=self.max_count, axes=self.axes, bad=self.bad_values)
+                except SplatFormatError as exc:
+                    errors.append(str(exc))
+                except (OSError, MemoryError) as exc:
+                    errors.append(f"{path}: {exc.strerror if isinstance(exc, OSError) else 'out of memory'}")
+                else:
+                    imported.append(obj)
+                    if report.bad.total:
+                        self.report({"WARNING"}, f"{path}: {report.bad.summary()}")
+                wm.progress_update(i + 1)
+        finally:
+            wm.progress_end()
+        for message in errors:
+            self.report({"ERROR"}, message)
+        if not imported:
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"imported {len(imported)} splat object(s)")
+        return {"FINISHED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        for name in ("max_sh_degree", "min_opacity", "max_count", "axes", "bad_values"):
+            layout.prop(self, name)
+
+
+class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
+    """Export the selected splat objects' data (object-local) to .ply or .splat"""
+
+    bl_idname = "export_scene.splatline_gaussians"
+    bl_label = "Gaussian Splats (.ply, .splat)"
+    bl_options = {"REGISTER", "PRESET"}
+
+    filter_glob: StringProperty(default="*.ply;*.splat", options={"HIDDEN"})
+    file_format: EnumProperty(name="Format", default="PLY", items=[
+        ("PLY", "INRIA PLY (.ply)", "Float PLY with every SH band: a lossless round trip"),
+        ("SPLAT", "antimatter15 (.splat)", "Compact 32-byte splats, no higher SH"),
+    ])
+
+    @property
+    def filename_ext(self):
+        return ".splat" if self.file_format == "SPLAT" else ".ply"
+
+    @classmethod
+    def poll(cls, context):
+        return any(_is_splat_object(o) for o in context.selected_objects)
+
+    def execute(self, context):
+        objects = [o for o in context.selected_objects if _is_splat_object(o)]
+        if not objects:
+            self.report({"ERROR"}, "select a splat object to export")
+            return {"CANCELLED"}
+        root, ext = os.path.splitext(self.filepath)
+        ext = ext if ext.lower() in (".ply", ".splat") else self.filename_ext
+        written = []
+        for obj in objects:
+            path = root + ext if len(objects) == 1 else f"{root}_{bpy.path.clean_name(obj.name)}{ext}"
+            try:
+                export_object(obj, path)
+            except SplatFormatError as exc:
+                self.report({"ERROR"}, str(exc))
+            else:
+                written.append(path)
+        if not written:
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"wrote {', '.join(written)} ({object_axes(objects[0])} axes)")
+        return {"FINISHED"}
+
+
+def _is_splat_object(obj) -> bool:
+    return obj is not None and obj.type == "POINTCLOUD" and is_splat_data(obj.data)
+
+
+class IO_FH_splatline_gaussians(bpy.types.FileHandler):
+    bl_idname = "IO_FH_splatline_gaussians"
+    bl_label = "Gaussian Splats"
+    bl_import_operator = "import_scene.splatline_gaussians"
+    bl_file_extensions = ".ply;.splat;.spz"
+
+    @classmethod
+    def poll_drop(cls, context):
+        return poll_file_object_drop(context)
+
+
+def _menu_import(self, context):
+    self.layout.operator(IMPORT_SCENE_OT_splatline_gaussians.bl_idname, text="Gaussian Splats (.ply, .splat, .spz)")
+
+
+def _menu_export(self, context):
+    self.layout.operator(EXPORT_SCENE_OT_splatline_gaussians.bl_idname, text="Gaussian Splats (.ply, .splat)")
+
+
+_CLASSES = (IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians, IO_FH_splatline_gaussians)
 
 
 def register():
-    pass
+    for cls in _CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
+    bpy.types.TOPBAR_MT_file_export.append(_menu_export)
 
 
 def unregister():
-    pass
+    bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
+    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
+    for cls in reversed(_CLASSES):
+        bpy.utils.unregister_class(cls)

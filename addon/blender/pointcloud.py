@@ -1,7 +1,10 @@
 """SplatSet <-> PointCloud data with Blender 5.3's splat attribute schema (DESIGN.md).
 
-bpy 5.0 cannot resize a PointCloud from Python, so new point clouds are built as a
-vertex-only mesh and converted; the attributes carry over unchanged.
+bpy 5.0 cannot resize a PointCloud from Python, so a new point cloud starts as a
+vertex-only mesh holding only the positions, which bpy.ops.object.convert turns into a
+PointCloud (cheap: Blender shares the array). The splat attributes are then written on
+the PointCloud itself, where `attributes.new` allocates lazily, so each array is written
+once by foreach_set from a contiguous float32 buffer and never zero-filled first.
 """
 from __future__ import annotations
 
@@ -13,6 +16,8 @@ from ..core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 
 BASE = "radiance:base"
 _FLOAT4_TYPE = "FLOAT4" if "FLOAT4" in bpy.types.Attribute.bl_rna.properties["data_type"].enum_items else "FLOAT_COLOR"
+_VALUE_KEY = {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color", "QUATERNION": "value",
+              "FLOAT4": "value", "FLOAT": "value"}
 
 
 def sh_name(k: int) -> str:
@@ -23,54 +28,113 @@ def is_splat_data(data) -> bool:
     return isinstance(data, bpy.types.PointCloud) and BASE in data.attributes
 
 
-def _value_key(attribute) -> str:
-    return {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color", "QUATERNION": "value",
-            "FLOAT4": "value", "FLOAT": "value"}[attribute.data_type]
+def schema(degree: int) -> list[tuple[str, str]]:
+    """(name, data type) of every attribute a splat PointCloud of this SH degree holds."""
+    names = [("position", "FLOAT_VECTOR"), ("scale", "FLOAT_VECTOR"), ("rotation", "QUATERNION"),
+             (BASE, _FLOAT4_TYPE)]
+    return names + [(sh_name(k), "FLOAT_VECTOR") for k in range(sh_coeff_count(degree))]
 
 
-def _set(attributes, name, data_type, values: np.ndarray):
-    attribute = attributes.get(name) or attributes.new(name, data_type, "POINT")
-    attribute.data.foreach_set(_value_key(attribute), np.ascontiguousarray(values, np.float32).ravel())
+def _contiguous(values: np.ndarray, scratch: np.ndarray | None = None) -> np.ndarray:
+    """A C-contiguous float32 view or copy; copies into scratch when it fits, to avoid
+    touching fresh memory for every attribute."""
+    if values.dtype == np.float32 and values.flags.c_contiguous:
+        return values
+    if scratch is not None and scratch.shape == values.shape:
+        np.copyto(scratch, values, casting="unsafe")
+        return scratch
+    return np.ascontiguousarray(values, np.float32)
+
+
+def _set(attributes, name, data_type, values: np.ndarray, scratch=None):
+    attribute = attributes.get(name)
+    if attribute is not None and attribute.data_type != data_type:
+        attributes.remove(attribute)
+        attribute = None
+    if attribute is None:
+        attribute = attributes.new(name, data_type, "POINT")
+    flat = _contiguous(values, scratch).reshape(-1)
+    attribute.data.foreach_set(_VALUE_KEY[data_type], flat)
 
 
 def _get(attributes, name, width, count) -> np.ndarray:
     attribute = attributes[name]
     out = np.empty(count * width, np.float32)
-    attribute.data.foreach_get(_value_key(attribute), out)
+    attribute.data.foreach_get(_VALUE_KEY[attribute.data_type], out)
     return out.reshape(count, width) if width > 1 else out
 
 
-def _write_attributes(attributes, splats: SplatSet):
+def write_attributes(attributes, splats: SplatSet) -> None:
+    """Every splat attribute except position, on a geometry with splats.count points.
+    sh attributes beyond the set's degree are removed, so a lower degree leaves none behind."""
     _set(attributes, "scale", "FLOAT_VECTOR", splats.scales)
     _set(attributes, "rotation", "QUATERNION", splats.rotations)
-    base = np.concatenate([splats.sh_dc, splats.opacities[:, None]], axis=1)
+    base = np.empty((splats.count, 4), np.float32)
+    base[:, :3] = splats.sh_dc
+    base[:, 3] = splats.opacities
     _set(attributes, BASE, _FLOAT4_TYPE, base)
-    for k in range(splats.sh_rest.shape[1]):
-        _set(attributes, sh_name(k), "FLOAT_VECTOR", splats.sh_rest[:, k])
+    rest = splats.sh_rest
+    scratch = np.empty((splats.count, 3), np.float32) if rest.shape[1] else None
+    for k in range(rest.shape[1]):
+        _set(attributes, sh_name(k), "FLOAT_VECTOR", rest[:, k], scratch)
+    k = rest.shape[1]
+    while sh_name(k) in attributes:
+        attributes.remove(attributes[sh_name(k)])
+        k += 1
 
 
 def new_pointcloud(name: str, splats: SplatSet) -> bpy.types.PointCloud:
-    """A new PointCloud datablock holding splats (positions in the file's own frame).
+    """A new PointCloud datablock (no object) holding splats in the file's own frame.
 
-    Nothing is left behind on failure: the helper mesh and object are always removed.
+    Atomic: on any failure the helper mesh, helper object and PointCloud are removed.
     """
+    obj = new_pointcloud_object(name, splats)
+    pointcloud = obj.data
+    bpy.data.objects.remove(obj)
+    return pointcloud
+
+
+def new_pointcloud_object(name: str, splats: SplatSet, collection=None) -> bpy.types.Object:
+    """A new object holding a new splat PointCloud, linked into `collection` (default: the
+    scene's master collection). Atomic: on failure no object, mesh or PointCloud is left."""
     mesh = bpy.data.meshes.new(name)
-    helper = None
+    obj = pointcloud = None
     try:
         mesh.vertices.add(splats.count)
-        mesh.vertices.foreach_set("co", np.ascontiguousarray(splats.positions, np.float32).ravel())
-        _write_attributes(mesh.attributes, splats)
-        helper = bpy.data.objects.new(name, mesh)
-        pointcloud = _convert_to_pointcloud(helper)
+        if splats.count:
+            mesh.attributes["position"].data.foreach_set("vector", _contiguous(splats.positions).reshape(-1))
+        obj = bpy.data.objects.new(name, mesh)
+        pointcloud = _convert_to_pointcloud(obj)
+        _fill(pointcloud, splats)
+        pointcloud.name = name
+        _relink(obj, collection)
+    except BaseException:
+        if obj is not None:
+            bpy.data.objects.remove(obj)
+        if pointcloud is not None and pointcloud.name in bpy.data.pointclouds:
+            bpy.data.pointclouds.remove(pointcloud)
+        raise
     finally:
-        if helper is not None:
-            bpy.data.objects.remove(helper)
         if mesh.name in bpy.data.meshes and mesh.users == 0:
             bpy.data.meshes.remove(mesh)
+    return obj
+
+
+def _fill(pointcloud, splats: SplatSet) -> None:
     if ".select_vert" in pointcloud.attributes:
         pointcloud.attributes.remove(pointcloud.attributes[".select_vert"])
-    pointcloud.name = name
-    return pointcloud
+    if splats.count:
+        write_attributes(pointcloud.attributes, splats)
+    else:  # an empty PointCloud still declares the schema, so it counts as splat data
+        for attr_name, data_type in schema(splats.sh_degree)[1:]:
+            pointcloud.attributes.new(attr_name, data_type, "POINT")
+
+
+def _relink(obj, collection) -> None:
+    master = bpy.context.scene.collection
+    if collection is not None and collection != master:
+        collection.objects.link(obj)
+        master.objects.unlink(obj)
 
 
 def _convert_to_pointcloud(helper) -> bpy.types.PointCloud:
@@ -85,17 +149,22 @@ def _convert_to_pointcloud(helper) -> bpy.types.PointCloud:
     return helper.data
 
 
+def sh_count_in(attributes) -> int:
+    """Number of complete-degree radiance:sh_k attributes present (0, 3, 8 or 15)."""
+    k = 0
+    while sh_name(k) in attributes:
+        k += 1
+    return _largest_complete(k)
+
+
 def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
     """Read the splat attributes of a (possibly evaluated) PointCloud into a SplatSet."""
     attributes = pointcloud.attributes
     n = len(pointcloud.points)
-    base = _get(attributes, BASE, 4, n)
-    k = 0
-    while sh_name(k) in attributes:
-        k += 1
-    degree = sh_degree_for(_largest_complete(k))
+    degree = sh_degree_for(sh_count_in(attributes))
     if n == 0:  # an empty PointCloud has no position attribute at all
         return SplatSet.allocate(0, degree, axes)
+    base = _get(attributes, BASE, 4, n)
     rest = np.empty((n, sh_coeff_count(degree), 3), np.float32)
     for i in range(rest.shape[1]):
         rest[:, i] = _get(attributes, sh_name(i), 3, n)

@@ -1,9 +1,202 @@
-"""(placeholder until its owner fills it in)."""
+"""The Splatline RenderEngine: F12, `blender -b -a`, and bpy.ops.render.render from bpy.
+
+Blender makes a new engine instance for every frame, so the offscreen renderer (its
+GL context, worker thread and GPU buffers) lives in a module-level holder instead:
+created on the first frame of a render job, reused by the following frames, and
+closed when the job completes or is cancelled, and on unregister.
+"""
+from __future__ import annotations
+
+import threading
+import traceback
+
+import bpy
+
+from ..core.errors import SplatFormatError
+from . import render_panel
+from .camera import camera_from_blender
+from .evaluate import collect_items
+from .render_film import (blender_depth, bottom_up, composite_over, region_camera,
+                          render_region, to_scene_linear)
+
+
+class _ReferenceRenderer:
+    """core.reference behind the offscreen renderer's interface (it keeps no state)."""
+
+    def render(self, items, camera, options):
+        from ..core import reference
+        return reference.render(items, camera, options)
+
+    def close(self):
+        pass
+
+
+def _make_renderer(kind: str):
+    if kind == "REFERENCE":
+        return _ReferenceRenderer()
+    from ..gl import OffscreenRenderer
+    return OffscreenRenderer()
+
+
+class _RendererHolder:
+    """One renderer, shared by the frames of a render job; the lock covers F12 jobs
+    running on Blender's render thread while unregister runs on the main thread."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._renderer = None
+        self._kind = None
+
+    def get(self, kind: str):
+        with self._lock:
+            if self._renderer is None or self._kind != kind:
+                self._close_locked()
+                self._renderer = _make_renderer(kind)
+                self._kind = kind
+            return self._renderer
+
+    @property
+    def alive(self) -> bool:
+        return self._renderer is not None
+
+    def close(self):
+        with self._lock:
+            self._close_locked()
+
+    def _close_locked(self):
+        renderer, self._renderer, self._kind = self._renderer, None, None
+        if renderer is not None:
+            renderer.close()
+
+
+_HOLDER = _RendererHolder()
+# Set by a SIGINT handler (the command line installs one): the engine stops at its next
+# check, Blender writes no file for that frame and ends the job; finished frames stay.
+_STOP = threading.Event()
+
+
+def request_stop():
+    _STOP.set()
+
+
+def clear_stop():
+    _STOP.clear()
+
+
+def stop_requested() -> bool:
+    return _STOP.is_set()
+
+
+class _Stopped(Exception):
+    """Raised between stages when the user asked to stop (Esc, SIGINT)."""
+
+
+class SplatlineRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "SPLATLINE"
+    bl_label = "Splatline"
+    bl_use_preview = False
+    # The offscreen renderer owns its own GL context on its own thread (DESIGN.md):
+    # render() needs no Blender GPU context, so a farm node without one still renders.
+    bl_use_gpu_context = False
+    bl_use_postprocess = True
+
+    def render(self, depsgraph):
+        try:
+            self._render(depsgraph)
+        except (_Stopped, KeyboardInterrupt):
+            # An ERROR report makes Blender break the job: no file for this frame.
+            self.report({"ERROR"}, "Splatline: render interrupted")
+        except (SplatFormatError, ValueError) as exc:
+            self.report({"ERROR"}, f"Splatline: {exc}")
+        except Exception as exc:  # a bug: show the traceback, but still stop cleanly
+            traceback.print_exc()
+            self.report({"ERROR"}, f"Splatline: {type(exc).__name__}: {exc}")
+
+    def _check(self):
+        if self.test_break() or _STOP.is_set():
+            raise _Stopped()
+
+    def _render(self, depsgraph):
+        scene = depsgraph.scene
+        settings = scene.splatline.render
+        camera_obj = self.camera_override or scene.camera
+        if camera_obj is None:
+            raise ValueError(f"scene {scene.name!r} has no camera")
+        full = camera_from_blender(scene, camera_obj, depsgraph)
+        r = scene.render
+        region = render_region(full.width, full.height, r.use_border,
+                               (r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y))
+        self.update_stats("", "Splatline | gathering splats")
+        items = collect_items(depsgraph)
+        self._check()
+        self.update_stats("", f"Splatline | rendering {sum(i.splats.count for i in items):,} splats")
+        renderer = _HOLDER.get(settings.renderer)
+        out = renderer.render(items, region_camera(full, region), settings.options())
+        self._check()
+        rgba = to_scene_linear(out.rgba)
+        if not r.film_transparent:
+            rgba = composite_over(rgba, _world_colour(scene))
+        self._write(depsgraph, region, rgba, blender_depth(out.depth))
+
+    def _write(self, depsgraph, region, rgba, depth):
+        result = self.begin_result(0, 0, region.width, region.height,
+                                   layer=depsgraph.view_layer.name)
+        try:
+            if (result.resolution_x, result.resolution_y) != (region.width, region.height):
+                raise ValueError(f"render result is {result.resolution_x}x{result.resolution_y}, "
+                                 f"expected the region {region.width}x{region.height}")
+            passes = result.layers[0].passes
+            passes["Combined"].rect.foreach_set(bottom_up(rgba))
+            depth_pass = passes.get("Depth")
+            if depth_pass is not None:
+                depth_pass.rect.foreach_set(bottom_up(depth))
+        except BaseException:
+            self.end_result(result, cancel=True)
+            raise
+        self.end_result(result)
+        self.update_progress(1.0)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+
+    def view_update(self, context, depsgraph):
+        pass
+
+    def view_draw(self, context, depsgraph):
+        # The viewport module draws rendered shading once it provides a draw function.
+        from . import viewport
+        draw = getattr(viewport, "draw_engine_view", None)
+        if draw is not None:
+            draw(self, context, depsgraph)
+
+
+def _world_colour(scene):
+    """The world's colour (scene-linear), black without a world, as Blender's engines do."""
+    return tuple(scene.world.color) if scene.world is not None else (0.0, 0.0, 0.0)
+
+
+@bpy.app.handlers.persistent
+def _job_finished(*_args):
+    _HOLDER.close()
+
+
+_JOB_HANDLERS = ("render_complete", "render_cancel")
 
 
 def register():
-    pass
+    bpy.utils.register_class(SplatlineRenderEngine)
+    render_panel.register()
+    for name in _JOB_HANDLERS:
+        getattr(bpy.app.handlers, name).append(_job_finished)
 
 
 def unregister():
-    pass
+    for name in _JOB_HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        while _job_finished in handlers:
+            handlers.remove(_job_finished)
+    _HOLDER.close()
+    render_panel.unregister()
+    bpy.utils.unregister_class(SplatlineRenderEngine)

@@ -1,9 +1,47 @@
-"""RenderSettings property group (placeholder until its owner fills it in)."""
+"""Scene.splatline.render: the Splatline engine's quality settings (core RenderOptions)."""
 import bpy
+
+from ..core.scene import RenderOptions
+
+RENDERERS = (
+    ("OFFSCREEN", "Offscreen GL", "moderngl offscreen renderer (GPU, or Mesa llvmpipe on CPU)"),
+    ("REFERENCE", "Reference",
+     "Exact float64 per-pixel CPU renderer: slow, for checking the fast one"),
+)
 
 
 class RenderSettings(bpy.types.PropertyGroup):
-    pass
+    renderer: bpy.props.EnumProperty(
+        name="Renderer", items=RENDERERS, default="OFFSCREEN",
+        description="Which implementation of the same splat semantics renders the frame")
+    antialiased: bpy.props.BoolProperty(
+        name="Anti-aliased", default=False,
+        description="Compensate opacity for the 0.3 px low-pass filter (gsplat's "
+                    "anti-aliased mode); use for captures trained that way")
+    early_termination: bpy.props.BoolProperty(
+        name="Early Termination", default=False,
+        description="Stop a pixel once its transmittance drops below 1e-4, as INRIA's "
+                    "tile rasterizer does (only renderers that support it)")
+    opacity_aware_extent: bpy.props.BoolProperty(
+        name="Opacity-Aware Extent", default=True,
+        description="Shrink each splat's quad to where its alpha falls below 1/255 "
+                    "instead of a fixed 3 sigma: faster, same image")
+    key_bits: bpy.props.EnumProperty(
+        name="Sort Key Bits",
+        items=(("16", "16-bit", "Faster sort; enough for most captures"),
+               ("32", "32-bit", "Exact order for scenes with a wide depth range")),
+        default="32", description="Precision of the back-to-front depth sort keys")
+    gpu_sort: bpy.props.BoolProperty(
+        name="GPU Sort", default=True,
+        description="Sort on the GPU with compute shaders where OpenGL 4.3 is available, "
+                    "else on the CPU")
+
+    def options(self, background=(0.0, 0.0, 0.0, 0.0)) -> RenderOptions:
+        """The core RenderOptions these settings stand for."""
+        return RenderOptions(
+            antialiased=self.antialiased, early_termination=self.early_termination,
+            opacity_aware_extent=self.opacity_aware_extent, key_bits=int(self.key_bits),
+            gpu_sort=self.gpu_sort, background=tuple(background))
 
 
 classes = (RenderSettings,)

@@ -9,6 +9,7 @@ import argparse
 import importlib
 import sys
 
+from .cli import UserError
 from .core.errors import SplatFormatError
 
 COMMANDS = {
@@ -18,10 +19,6 @@ COMMANDS = {
     "render": "render a .blend with the Splatline engine",
     "demo": "build, animate and render the demo scene",
 }
-
-
-class UserError(Exception):
-    """A problem with the command's input that deserves one line, not a traceback."""
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.scene import RenderItem
+from . import sequence_runtime
 from .pointcloud import is_splat_data, splats_from_pointcloud
 
 
@@ -22,11 +23,14 @@ def splat_objects(depsgraph):
             yield obj
 
 
-def item_for(obj_eval) -> RenderItem:
-    splats = splats_from_pointcloud(obj_eval.data)
+def item_for(obj_eval, depsgraph=None) -> RenderItem:
+    # a sequence object's splats come from its frame files, not its PointCloud
+    frame = sequence_runtime.sequence_frame(obj_eval, depsgraph) if depsgraph is not None else None
+    splats = splats_from_pointcloud(obj_eval.data) if frame is None else frame.splats
     world = np.array(obj_eval.matrix_world, np.float64)
-    return RenderItem(splats=splats, world=world, key=(obj_eval.original.name, None))
+    key = (obj_eval.original.name, None if frame is None else frame.key)
+    return RenderItem(splats=splats, world=world, key=key)
 
 
 def collect_items(depsgraph) -> list[RenderItem]:
-    return [item_for(obj) for obj in splat_objects(depsgraph)]
+    return [item_for(obj, depsgraph) for obj in splat_objects(depsgraph)]

@@ -15,9 +15,10 @@ Conventions and the choices the renderers must agree on:
 - Culled (valid = False): centre depth <= near or > far, opacity < 1/255 (no
   pixel could reach the 1/255 cut), zero/NaN quaternion, det <= 0, and any
   non-finite value in the inputs or results.
-- Extent (in sigmas): 3, or min(3, sqrt(2 ln(255 o))) when opacity-aware. A
-  pixel belongs to the splat iff its Mahalanobis distance is within the extent;
-  `radius` (pixels, from the larger eigenvalue) bounds that ellipse.
+- Extent (in sigmas): 3, or min(3, sqrt(2 ln(255 o))) when opacity-aware.
+  `radius` = extent * sqrt(lambda_max) in pixels (not rounded) is the half-size
+  of the screen-aligned square quad the splat covers.
+- Zero quaternions are culled, like NaN ones (not treated as the identity).
 """
 from __future__ import annotations
 
@@ -45,8 +46,8 @@ class Projected:
     opacity: np.ndarray  # (N,) opacity * opacity_scale (* antialias compensation)
     rgb: np.ndarray      # (N, 3) colour after the colour matrix, clamped at 0
     depth: np.ndarray    # (N,) view-space depth of the centre (-z)
-    extent: np.ndarray   # (N,) half-extent in sigmas (Mahalanobis cut)
-    radius: np.ndarray   # (N,) half-extent in pixels along the major axis (float)
+    extent: np.ndarray   # (N,) quad half-extent in sigmas of the major axis
+    radius: np.ndarray   # (N,) quad half-size in pixels: extent * sqrt(lambda_max)
     valid: np.ndarray    # (N,) bool
 
     @property

@@ -7,9 +7,11 @@ other renderer (semantics in ../../../shared/DESIGN.md, projection in project.py
   measured from the top-left corner of the frame. This is INRIA's convention:
   its ndc2Pix maps the frame to [-0.5, W - 0.5] and samples at integer pixel
   coordinates, i.e. our centres shifted by half a pixel.
-- A splat touches the pixels whose Mahalanobis distance is within its extent
-  (project.Projected.extent); alpha = min(0.99, o exp(-d^T conic d / 2)) and
-  alpha < 1/255 is dropped.
+- A splat touches the pixels whose centres lie in its screen-aligned square
+  quad, |u_pixel - u| <= radius and |v_pixel - v| <= radius (radius from
+  project.py, a float: what a quad rasterizer covers; INRIA's tiles cover at
+  least that). There alpha = min(0.99, o exp(-d^T conic d / 2)), and alpha <
+  1/255 is dropped.
 - Compositing runs front to back: C += T alpha c, T *= (1 - alpha), film
   alpha = 1 - T. Without early termination this equals back-to-front
   premultiplied "over" (C = alpha c + (1 - alpha) C) up to float64 rounding;
@@ -53,7 +55,7 @@ def render(items: list[RenderItem], camera: Camera, options: RenderOptions = Ren
 def _gather(items, camera, options) -> dict:
     """Every item's visible splats, concatenated in front-to-back order, with
     their inclusive pixel bounding boxes (clipped to the frame)."""
-    fields = ("means2d", "conic", "opacity", "rgb", "depth", "extent", "radius")
+    fields = ("means2d", "conic", "opacity", "rgb", "depth", "radius")
     parts = {f: [] for f in fields}
     for item in items:
         p = project(item, camera, options.antialiased, options.opacity_aware_extent)
@@ -95,7 +97,7 @@ def _render_tile(s: dict, x0: int, y0: int, x1: int, y1: int, early_termination:
         m2 = ca * dx * dx + 2.0 * cb * dx * dy + cc * dy * dy
         alpha = np.minimum(MAX_ALPHA, s["opacity"][i] * np.exp(-0.5 * m2))
         sl = (slice(by0 - y0, by1 - y0), slice(bx0 - x0, bx1 - x0))
-        mask = (m2 <= s["extent"][i] ** 2) & (alpha >= ALPHA_MIN) & ~done[sl]
+        mask = (alpha >= ALPHA_MIN) & ~done[sl]
         t = trans[sl]
         if early_termination:
             stop = mask & (t * (1.0 - alpha) < T_STOP)

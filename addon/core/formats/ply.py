@@ -124,7 +124,7 @@ def encode_vertices(splats: SplatSet) -> np.ndarray:
     """SplatSet -> INRIA vertex records (log scales, logit opacity, channel-major f_rest)."""
     n, k = splats.count, sh_coeff_count(splats.sh_degree)
     rec = np.zeros(n, ply_dtype(splats.sh_degree))
-    flat = rec.view(np.float32).reshape(n, -1)
+    flat = rec.view(np.float32).reshape(n, len(rec.dtype.names))
     flat[:, 0:3] = splats.positions
     flat[:, 6:9] = splats.sh_dc
     if k:

@@ -36,9 +36,16 @@ bool sl_is_finite(float x) { return !(isnan(x) || isinf(x)); }
 bool sl_is_finite3(vec3 v) { return sl_is_finite(v.x) && sl_is_finite(v.y) && sl_is_finite(v.z); }
 bool sl_is_finite4(vec4 v) { return sl_is_finite3(v.xyz) && sl_is_finite(v.w); }
 
+// A quaternion the renderers accept: finite and not zero (others are culled, as in
+// core/project.py).
+bool sl_quat_ok(vec4 q)
+{
+    return sl_is_finite4(q) && max(max(abs(q.x), abs(q.y)), max(abs(q.z), abs(q.w))) > 0.0;
+}
+
 // Rotation matrix (columns) of a quaternion (w, x, y, z). Not necessarily normalized:
 // it is rescaled by its largest component first so tiny quaternions do not underflow.
-// A zero quaternion gives the identity (NaN quaternions must be culled by the caller).
+// Callers cull quaternions failing sl_quat_ok; a zero one gives the identity here.
 mat3 sl_quat_to_mat(vec4 q)
 {
     float m = max(max(abs(q.x), abs(q.y)), max(abs(q.z), abs(q.w)));
@@ -70,19 +77,35 @@ vec2 sl_project_point(vec3 t, vec4 focal_centre, bool ortho)
     return vec2(c.x + f.x * t.x / d, c.y - f.y * t.y / d);
 }
 
+// Bounds (xmin, ymin, xmax, ymax) for t.xy / -z used in J: the frame plus a 15% margin
+// on each side, in pixels. For an unshifted camera this is INRIA's +-1.3 tan(fov/2);
+// for a shifted one it is the same margin around the actual frame (as core/project.py).
+vec4 sl_jacobian_bounds(vec2 frame_size, vec4 focal_centre)
+{
+    vec2 f = focal_centre.xy, c = focal_centre.zw, m = 0.15 * frame_size;
+    return vec4((-m.x - c.x) / f.x, (c.y - frame_size.y - m.y) / f.y,
+                (frame_size.x + m.x - c.x) / f.x, (c.y + m.y) / f.y);
+}
+
 // Jacobian d(u, v)/d(x, y, z) at camera-space point t (mat3x2: 3 columns, 2 rows).
-// Perspective: t.x/-z and t.y/-z are clamped to +-1.3 tan(fov/2) here only (INRIA),
-// never for the centre itself.
-mat3x2 sl_jacobian(vec3 t, vec2 focal, vec2 tan_half_fov, bool ortho)
+// Perspective: t.xy / -z is clamped to bounds (sl_jacobian_bounds) here only, never
+// for the centre itself.
+mat3x2 sl_jacobian(vec3 t, vec2 focal, vec4 bounds, bool ortho)
 {
     if (ortho) return mat3x2(vec2(focal.x, 0.0), vec2(0.0, -focal.y), vec2(0.0));
     float d = -t.z;
-    vec2 lim = SL_FRUSTUM_SLACK * tan_half_fov;
-    vec2 txy = clamp(t.xy / d, -lim, lim);  // = clamped t.xy / d
+    vec2 txy = clamp(t.xy / d, bounds.xy, bounds.zw);
     return mat3x2(
         vec2(focal.x / d, 0.0),
         vec2(0.0, -focal.y / d),
         vec2(focal.x * txy.x / d, -focal.y * txy.y / d));
+}
+
+// INRIA's symmetric form: t.xy / -z clamped to +-1.3 tan(fov/2) (unshifted cameras).
+mat3x2 sl_jacobian(vec3 t, vec2 focal, vec2 tan_half_fov, bool ortho)
+{
+    vec2 lim = SL_FRUSTUM_SLACK * tan_half_fov;
+    return sl_jacobian(t, focal, vec4(-lim, lim), ortho);
 }
 
 // 2D covariance (a, b, c) = [[a, b], [b, c]] before the low-pass, and its determinant in w.
@@ -109,7 +132,7 @@ vec4 sl_cov2d(mat3 axes_cam, mat3x2 jac)
 // opacity is multiplied by gsplat's compensation sqrt(det/det_lowpass) when antialiased.
 bool sl_conic(vec4 cov, bool antialiased, inout float opacity, out vec3 conic, out float lambda_max)
 {
-    float a = cov.x + SL_LOWPASS, b = cov.y, c = cov.z;
+    float a = cov.x + SL_LOWPASS, b = cov.y, c = cov.z + SL_LOWPASS;
     // det(S + 0.3 I) = det(S) + 0.3 tr(S) + 0.09: a sum of non-negative terms.
     float det = cov.w + SL_LOWPASS * (cov.x + cov.z) + SL_LOWPASS * SL_LOWPASS;
     conic = vec3(0.0);

@@ -1,0 +1,158 @@
+"""The GL-thread side of the offscreen renderer: one frame = upload, preprocess, sort,
+draw, readback (each a small method). Runs only on the renderer's GL thread."""
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ..core.camera import Camera
+from ..core.scene import RenderItem, RenderOptions, RenderOutput
+from . import shaders
+from .depthpass import DepthPass
+from .sorting import RadixSorter, cpu_order
+from .uniforms import camera_uniforms, item_uniforms, set_uniform
+from .upload import UploadCache
+
+MAX_TILE = 4096  # larger frames are drawn tile by tile (bounded GPU memory)
+B_ORDER, B_REC0, B_REC1, B_REC2, B_DEPTH, B_RANGE = 0, 3, 4, 5, 6, 7
+FRAME_ARRAYS = {"rec0": 16, "rec1": 16, "rec2": 16, "depth": 4,
+                "keys": 4, "vals": 4, "keys2": 4, "vals2": 4, "order": 4}
+
+
+class FrameState:
+    def __init__(self, ctx, stats: dict):
+        if ctx.version_code < 430:
+            raise RuntimeError(f"the offscreen renderer needs OpenGL 4.3 compute shaders; "
+                               f"this context is {ctx.version_code}")
+        self.ctx = ctx
+        self.stats = stats
+        self.cache = UploadCache(ctx, stats)
+        self.sorter = RadixSorter(ctx)
+        self.depth_pass = DepthPass(ctx)
+        self.preprocess = ctx.compute_shader(shaders.source("gl_preprocess.comp"))
+        self.draw = ctx.program(vertex_shader=shaders.source("gl_splat.vert"),
+                                fragment_shader=shaders.source("gl_splat.frag"))
+        self.draw_vao = ctx.vertex_array(self.draw, [])
+        self.range = ctx.buffer(reserve=12)
+        self.dummy = ctx.buffer(reserve=16)
+        self.capacity = 0
+        self.arrays: dict = {}
+        self.targets: dict = {}
+
+    # -- frame-wide arrays -------------------------------------------------------------
+    def _ensure(self, n: int):
+        if n <= self.capacity:
+            return
+        cap = max(1024, 1 << math.ceil(math.log2(n)))
+        for buf in self.arrays.values():
+            buf.release()
+        self.arrays = {k: self.ctx.buffer(reserve=size * cap) for k, size in FRAME_ARRAYS.items()}
+        self.capacity = cap
+
+    # -- stages ------------------------------------------------------------------------
+    def _preprocess(self, items, objects, camera, options) -> int:
+        """Project every splat into the frame arrays; returns the visible count."""
+        self.range.write(np.array([0xFFFFFFFF, 0, 0], np.uint32).tobytes())
+        a = self.arrays
+        for binding, name in ((B_REC0, "rec0"), (B_REC1, "rec1"), (B_REC2, "rec2"), (B_DEPTH, "depth")):
+            a[name].bind_to_storage_buffer(binding)
+        self.range.bind_to_storage_buffer(B_RANGE)
+        cs = self.preprocess
+        for name, value in camera_uniforms(camera).items():
+            set_uniform(cs, name, value)
+        set_uniform(cs, "u_antialiased", bool(options.antialiased))
+        set_uniform(cs, "u_opacity_aware", bool(options.opacity_aware_extent))
+        base = 0
+        for item, obj in zip(items, objects):
+            for name, value in item_uniforms(item, camera).items():
+                set_uniform(cs, name, value)
+            set_uniform(cs, "u_rest_count", obj.rest_coeffs)
+            for part in obj.parts:
+                part.geom.bind_to_storage_buffer(0)
+                part.dc.bind_to_storage_buffer(1)
+                (part.rest or self.dummy).bind_to_storage_buffer(2)
+                set_uniform(cs, "u_count", part.count)
+                set_uniform(cs, "u_base", base + part.start)
+                cs.run((part.count + 255) // 256)
+            base += obj.count
+        self.ctx.memory_barrier()
+        return int(np.frombuffer(self.range.read(), np.uint32)[2])
+
+    def _sort(self, n: int, options: RenderOptions):
+        """Leaves the back-to-front order of the visible splats in a buffer; returns it."""
+        a = self.arrays
+        if options.gpu_sort:
+            self.sorter.make_keys(n, options.key_bits, a["depth"], self.range, a["keys"], a["vals"])
+            self.sorter.sort(n, options.key_bits, a["keys"], a["vals"], a["keys2"], a["vals2"])
+            self.stats["gpu_sorts"] += 1
+            return a["vals"]
+        depth = np.frombuffer(a["depth"].read(size=4 * n), np.float32)
+        order = cpu_order(depth, options.key_bits)
+        a["order"].write(order.tobytes())
+        self.stats["cpu_sorts"] += 1
+        return a["order"]
+
+    def _target(self, w: int, h: int):
+        if (w, h) not in self.targets:
+            tex = self.ctx.texture((w, h), 4, dtype="f4")
+            self.targets[(w, h)] = (tex, self.ctx.framebuffer(color_attachments=[tex]))
+        return self.targets[(w, h)][1]
+
+    def _draw_tile(self, tile, visible: int, background) -> np.ndarray:
+        x0, y0, w, h = tile
+        fbo = self._target(w, h)
+        fbo.use()
+        fbo.viewport = (0, 0, w, h)
+        fbo.clear(*background)
+        if visible:
+            self.ctx.enable(moderngl.BLEND)
+            self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+            set_uniform(self.draw, "u_tile", (float(x0), float(y0), float(w), float(h)))
+            set_uniform(self.draw, "u_visible", visible)
+            self.draw_vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=visible)
+            self.ctx.disable(moderngl.BLEND)
+        data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+        return data.reshape(h, w, 4)[::-1]  # GL rows are bottom-up
+
+    # -- one frame ---------------------------------------------------------------------
+    def render(self, items: list[RenderItem], camera: Camera, options: RenderOptions) -> RenderOutput:
+        if options.key_bits not in (16, 32):
+            raise ValueError(f"key bits must be 16 or 32, not {options.key_bits}")
+        objects = [self.cache.get(item) for item in items]
+        self.cache.retain({item.key for item in items if item.key is not None})
+        n = sum(obj.count for obj in objects)
+        self._ensure(max(n, 1))
+        visible = self._preprocess(items, objects, camera, options) if n else 0
+        order = self._sort(n, options) if visible else self.arrays["order"]
+        a = self.arrays
+        for binding, buf in ((B_ORDER, order), (B_REC0, a["rec0"]), (B_REC1, a["rec1"]), (B_REC2, a["rec2"])):
+            buf.bind_to_storage_buffer(binding)
+        rgba = np.empty((camera.height, camera.width, 4), np.float32)
+        depth = np.empty((camera.height, camera.width), np.float32)
+        bg = tuple(float(v) for v in options.background)
+        for tile in tiles(camera.width, camera.height):
+            x0, y0, w, h = tile
+            rgba[y0:y0 + h, x0:x0 + w] = self._draw_tile(tile, visible, bg)
+            depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(tile, visible)
+        self.stats["frames"] += 1
+        return RenderOutput(rgba, depth)
+
+    def release(self):
+        self.cache.release()
+        self.sorter.release()
+        self.depth_pass.release()
+        for buf in list(self.arrays.values()) + [self.range, self.dummy]:
+            buf.release()
+        for tex, fbo in self.targets.values():
+            fbo.release()
+            tex.release()
+        for obj in (self.draw_vao, self.draw, self.preprocess):
+            obj.release()
+
+
+def tiles(width: int, height: int):
+    for y0 in range(0, height, MAX_TILE):
+        for x0 in range(0, width, MAX_TILE):
+            yield x0, y0, min(MAX_TILE, width - x0), min(MAX_TILE, height - y0)

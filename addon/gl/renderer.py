@@ -1,0 +1,65 @@
+"""OffscreenRenderer: the final-render path (F12, blender -b, command line).
+
+One standalone moderngl context (EGL on Linux, also headless on CPU through Mesa
+llvmpipe), created once, owned by a private thread and reused across frames, with the
+splat data and frame buffers kept on the GPU between frames.
+"""
+from __future__ import annotations
+
+import sys
+
+from ..core.camera import Camera
+from ..core.scene import RenderItem, RenderOptions, RenderOutput
+from .worker import GLWorker
+
+
+def _create_context():
+    import moderngl
+
+    if sys.platform.startswith("linux"):
+        return moderngl.create_context(standalone=True, backend="egl", require=430)
+    return moderngl.create_context(standalone=True, require=430)
+
+
+class OffscreenRenderer:
+    """render(items, camera, options) -> RenderOutput, like every renderer.
+
+    stats counts work across frames: frames, geometry_uploads (objects whose splats
+    were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts.
+    """
+
+    def __init__(self, context_factory=_create_context):
+        self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
+                      "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0}
+        self._worker = GLWorker(context_factory)
+        from .frame import FrameState
+
+        try:
+            self._state = self._worker.call(FrameState, self._worker.ctx, self.stats)
+        except BaseException:
+            self._worker.close()
+            raise
+        self.gl_info = self._worker.call(lambda: dict(self._worker.ctx.info))
+
+    def render(self, items: list[RenderItem], camera: Camera,
+               options: RenderOptions = RenderOptions()) -> RenderOutput:
+        return self._worker.call(self._state.render, list(items), camera, options)
+
+    @property
+    def depth_steps(self) -> int:
+        """Bisection steps the depth pass took in the last frame (log2 of the visible count)."""
+        return self._state.depth_pass.steps
+
+    def close(self):
+        """Release every GPU object and the context, and join the GL thread."""
+        self._worker.close(self._state.release)
+
+    @property
+    def closed(self) -> bool:
+        return not self._worker.alive
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

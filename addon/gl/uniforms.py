@@ -1,0 +1,69 @@
+"""Per-object and per-camera values for the preprocess stage, computed in float64.
+
+Everything is camera-relative: the camera position is taken into each object's own
+frame in float64 and split into two float32s, so p - eye is exact on the GPU even for
+a capture 1e6 from the origin with the camera beside it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..core.project import J_CLAMP_MARGIN
+from ..core.scene import RenderItem
+
+
+def set_uniform(prog, name: str, value):
+    """Set a uniform if the compiler kept it (unused ones are optimised away)."""
+    try:
+        member = prog[name]
+    except KeyError:
+        return
+    if isinstance(value, np.ndarray):
+        # GLSL matrices are column-major: write the transpose's rows
+        member.write(np.ascontiguousarray(value.T, np.float32).tobytes())
+    else:
+        member.value = value
+
+
+def camera_uniforms(camera: Camera) -> dict:
+    w, h, fx, fy, cx, cy = camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
+    mx, my = J_CLAMP_MARGIN * w, J_CLAMP_MARGIN * h
+    # bounds of x/-z and y/-z (Blender camera axes) used in J; as core/project.py
+    bounds = ((-mx - cx) / fx, (cy - h - my) / fy, (w + mx - cx) / fx, (cy + my) / fy)
+    return {
+        "u_focal_centre": (fx, fy, cx, cy),
+        "u_jac_bounds": tuple(float(b) for b in bounds),
+        "u_frame": (float(w), float(h)),
+        "u_near_far": (float(camera.near), float(camera.far)),
+        "u_ortho": bool(camera.ortho),
+    }
+
+
+def split_float(x: np.ndarray) -> tuple[tuple, tuple]:
+    hi = np.asarray(x, np.float64).astype(np.float32)
+    lo = (np.asarray(x, np.float64) - hi.astype(np.float64)).astype(np.float32)
+    return tuple(float(v) for v in hi), tuple(float(v) for v in lo)
+
+
+def item_uniforms(item: RenderItem, camera: Camera) -> dict:
+    world = np.asarray(item.world, np.float64)
+    cam_from_local = (np.asarray(camera.world_to_camera, np.float64) @ world)[:3, :3]
+    with np.errstate(all="ignore"):
+        inv = np.linalg.pinv(world)
+        eye = inv[:3, :3] @ camera.position + inv[:3, 3]
+        fwd = inv[:3, :3] @ -camera.camera_to_world[:3, 2]
+        fwd = fwd / np.linalg.norm(fwd)
+    hi, lo = split_float(eye)
+    cm = np.asarray(item.color_matrix, np.float64)
+    return {
+        "u_cam_from_local": cam_from_local,
+        "u_eye_hi": hi,
+        "u_eye_lo": lo,
+        "u_ortho_dir": tuple(float(v) for v in fwd),
+        "u_splat_scale": float(item.splat_scale),
+        "u_opacity_scale": float(item.opacity_scale),
+        "u_sh_degree": int(item.effective_sh_degree),
+        "u_color_linear": cm[:, :3],
+        "u_color_offset": tuple(float(v) for v in cm[:, 3]),
+    }

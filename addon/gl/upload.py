@@ -1,0 +1,119 @@
+"""Stage "upload": per-object splat data in GPU storage buffers, cached by RenderItem.key.
+
+Unchanged data (same key) is not uploaded again; a transform, opacity or colour change
+is only uniforms. SH bands are uploaded only up to the degree actually rendered (none at
+degree 0) and re-uploaded only when a higher degree is asked for. An object larger than
+one storage block is split into parts that are preprocessed one after another.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.scene import RenderItem
+from ..core.splats import sh_coeff_count
+
+GEOM_FLOATS = 12  # position + opacity, scale + pad, quaternion wxyz
+
+
+@dataclass
+class Part:
+    start: int
+    count: int
+    geom: object            # moderngl.Buffer
+    dc: object
+    rest: object | None = None
+
+
+@dataclass
+class GpuObject:
+    key: tuple | None
+    count: int
+    data_degree: int
+    parts: list = field(default_factory=list)
+    rest_coeffs: int = 0     # coefficients per channel in each part's rest buffer
+
+    def release(self):
+        for part in self.parts:
+            for buf in (part.geom, part.dc, part.rest):
+                if buf is not None:
+                    buf.release()
+        self.parts = []
+
+
+def pack_geometry(item: RenderItem, start: int, stop: int) -> np.ndarray:
+    sp = item.splats
+    g = np.zeros((stop - start, GEOM_FLOATS), np.float32)
+    g[:, 0:3] = sp.positions[start:stop]
+    g[:, 3] = sp.opacities[start:stop]
+    g[:, 4:7] = sp.scales[start:stop]
+    g[:, 8:12] = sp.rotations[start:stop]
+    return g
+
+
+class UploadCache:
+    """Owns the per-object buffers; call only on the GL thread."""
+
+    def __init__(self, ctx, stats: dict):
+        self.ctx = ctx
+        self.stats = stats
+        self.objects: dict = {}
+        # a block may not exceed this; 180 bytes/splat (degree-3 SH) sets the part size
+        self.max_block = int(ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE") or (1 << 27))
+
+    def _part_size(self) -> int:
+        return max(1, self.max_block // (4 * 3 * 15))
+
+    def _buffer(self, array: np.ndarray):
+        data = np.ascontiguousarray(array, np.float32)
+        self.stats["bytes_uploaded"] += data.nbytes
+        # zero-size buffers are not allowed: keep one dummy float
+        return self.ctx.buffer(data.tobytes() if data.nbytes else b"\0\0\0\0")
+
+    def _upload_geometry(self, item: RenderItem) -> GpuObject:
+        sp = item.splats
+        obj = GpuObject(item.key, sp.count, sp.sh_degree)
+        step = self._part_size()
+        for start in range(0, sp.count, step):
+            stop = min(start + step, sp.count)
+            obj.parts.append(Part(start, stop - start, self._buffer(pack_geometry(item, start, stop)),
+                                  self._buffer(sp.sh_dc[start:stop])))
+        self.stats["geometry_uploads"] += 1
+        return obj
+
+    def _upload_rest(self, obj: GpuObject, item: RenderItem, degree: int):
+        coeffs = sh_coeff_count(degree)
+        for part in obj.parts:
+            if part.rest is not None:
+                part.rest.release()
+            rest = item.splats.sh_rest[part.start:part.start + part.count, :coeffs]
+            part.rest = self._buffer(rest)
+        obj.rest_coeffs = coeffs
+        self.stats["sh_uploads"] += 1
+
+    def get(self, item: RenderItem) -> GpuObject:
+        """The GPU copy of item's splats, uploading only what is missing."""
+        sp = item.splats
+        obj = self.objects.get(item.key) if item.key is not None else None
+        if obj is not None and (obj.count != sp.count or obj.data_degree != sp.sh_degree):
+            obj.release()
+            obj = None
+        if obj is None:
+            obj = self._upload_geometry(item)
+            if item.key is not None:
+                self.objects[item.key] = obj
+        degree = item.effective_sh_degree
+        if degree > 0 and obj.rest_coeffs < sh_coeff_count(degree):
+            self._upload_rest(obj, item, degree)
+        return obj
+
+    def retain(self, keys: set):
+        """Free the objects not drawn this frame."""
+        for key in [k for k in self.objects if k not in keys]:
+            self.objects.pop(key).release()
+
+    def release(self):
+        for obj in self.objects.values():
+            obj.release()
+        self.objects.clear()

@@ -1,9 +1,70 @@
-"""python -m addon import (placeholder until its owner fills it in)."""
+"""python -m addon import FILE... --blend OUT.blend: splat files into a new .blend.
+
+Every file is read before anything is saved; the first bad file stops the command with
+one line naming it, and no .blend is written.
+"""
+from __future__ import annotations
+
+import os
+
+from ..core.errors import SplatFormatError
+from . import UserError
+from ..core.splats import AXES
 
 
 def configure(parser):
-    pass
+    parser.add_argument("files", nargs="+", metavar="FILE", help=".ply, .splat or .spz files")
+    parser.add_argument("--blend", required=True, metavar="OUT.blend", help="the .blend file to write")
+    parser.add_argument("--max-sh-degree", type=int, default=3, choices=range(4), metavar="N",
+                        help="keep SH bands up to N (0..3, default 3)")
+    parser.add_argument("--min-opacity", type=float, default=0.0, metavar="X",
+                        help="drop splats less opaque than X (0..1)")
+    parser.add_argument("--max-count", type=int, default=0, metavar="N",
+                        help="keep the N most important splats per file (0: all)")
+    parser.add_argument("--axes", default="AUTO", choices=("AUTO",) + AXES,
+                        help="axis convention override (default: the file's)")
+    parser.add_argument("--bad-values", default="fix", choices=("fix", "drop", "error"),
+                        help="NaN/Inf splats and zero quaternions: neutralise, drop or refuse")
+
+
+def _check_args(args) -> None:
+    if not 0.0 <= args.min_opacity <= 1.0:
+        raise UserError(f"--min-opacity {args.min_opacity:g} is outside 0..1")
+    if args.max_count < 0:
+        raise UserError(f"--max-count {args.max_count} is negative")
+    out_dir = os.path.dirname(os.path.abspath(args.blend))
+    if not os.path.isdir(out_dir):
+        raise UserError(f"{args.blend}: folder {out_dir} does not exist")
+    if os.path.isdir(args.blend):
+        raise UserError(f"{args.blend}: is a directory")
 
 
 def run(args) -> int:
-    raise SystemExit("import: not implemented yet")
+    _check_args(args)
+    from .blender_session import start
+
+    bpy = start()
+    from ..blender.import_splats import import_file_with_report
+
+    for path in args.files:
+        obj, report = import_file_with_report(
+            bpy.context, path, max_sh_degree=args.max_sh_degree, min_opacity=args.min_opacity,
+            max_count=args.max_count, axes=args.axes, bad=args.bad_values)
+        extra = f"; {report.bad.summary()}" if report.bad.total else ""
+        print(f"{path}: {len(obj.data.points)} of {report.count_in_file} splats, "
+              f"SH degree {report.sh_degree_in_file} -> {_degree(obj)}{extra}")
+    try:
+        result = bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.blend))
+    except RuntimeError as exc:  # Blender reports a failed save as an error report
+        raise SplatFormatError(args.blend, f"cannot save: {str(exc).strip()}") from None
+    if "FINISHED" not in result:
+        raise SplatFormatError(args.blend, "Blender could not save the .blend")
+    print(f"wrote {args.blend} ({len(args.files)} object(s))")
+    return 0
+
+
+def _degree(obj) -> int:
+    from ..blender.pointcloud import sh_count_in
+    from ..core.splats import sh_degree_for
+
+    return sh_degree_for(sh_count_in(obj.data.attributes))

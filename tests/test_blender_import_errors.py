@@ -1,0 +1,118 @@
+"""Bad input through the Blender importer: one clear "<file>: <reason>" error, and nothing
+half-made left in bpy.data (no object, PointCloud or mesh)."""
+from __future__ import annotations
+
+import gzip
+import struct
+
+import pytest
+
+from addon.core.errors import SplatFormatError
+
+_HEADER = ("ply\nformat binary_little_endian 1.0\nelement vertex {n}\n"
+           + "".join(f"property float {p}\n" for p in
+                     "x y z f_dc_0 f_dc_1 f_dc_2 opacity scale_0 scale_1 scale_2 rot_0 rot_1 rot_2 rot_3".split())
+           + "end_header\n")
+
+
+def _truncated(tmp_path, testdata):
+    data = (testdata / "test64.ply").read_bytes()
+    path = tmp_path / "truncated.ply"
+    path.write_bytes(data[: len(data) // 2])
+    return path, "truncated"
+
+
+def _huge_header(tmp_path, testdata):
+    path = tmp_path / "huge.ply"
+    head = _HEADER.format(n=10**9).encode()
+    path.write_bytes(head + b"\0" * (1024 - len(head)))
+    return path, "truncated"
+
+
+def _directory(tmp_path, testdata):
+    path = tmp_path / "folder.ply"
+    path.mkdir()
+    return path, "directory"
+
+
+def _empty(tmp_path, testdata):
+    path = tmp_path / "empty.ply"
+    path.write_bytes(b"")
+    return path, "empty"
+
+
+def _zero_splats(tmp_path, testdata):
+    path = tmp_path / "zero.ply"
+    path.write_bytes(_HEADER.format(n=0).encode())
+    return path, "no splats"
+
+
+def _spz_magic(tmp_path, testdata):
+    path = tmp_path / "magic.spz"
+    path.write_bytes(b"JUNK" + bytes(200))
+    return path, "magic"
+
+
+def _spz_inner_magic(tmp_path, testdata):
+    # a valid gzip stream whose SPZ header has the wrong magic
+    path = tmp_path / "inner.spz"
+    path.write_bytes(gzip.compress(struct.pack("<IIIBBBB", 0x12345678, 2, 10, 0, 12, 0, 0) + bytes(400)))
+    return path, "magic"
+
+
+CASES = [_truncated, _huge_header, _directory, _empty, _zero_splats, _spz_magic, _spz_inner_magic]
+
+
+def _counts(bpy):
+    return len(bpy.data.objects), len(bpy.data.pointclouds), len(bpy.data.meshes)
+
+
+@pytest.mark.parametrize("make", CASES, ids=[c.__name__.strip("_") for c in CASES])
+def test_bad_file_leaves_nothing(bpy_empty, testdata, tmp_path, make):
+    from addon.blender.import_splats import import_file
+
+    bpy = bpy_empty
+    bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply"))  # something already there
+    path, reason = make(tmp_path, testdata)
+    before = _counts(bpy)
+    with pytest.raises(SplatFormatError) as info:
+        import_file(bpy.context, path)
+    assert info.value.path == str(path) and reason in info.value.reason.lower()
+    assert _counts(bpy) == before
+    with pytest.raises(RuntimeError) as info:  # an operator's ERROR report raises in bpy.ops
+        bpy.ops.import_scene.splatline_gaussians(filepath=str(path))
+    message = str(info.value)
+    assert f"{path}: " in message and reason in message.lower() and "Traceback" not in message
+    assert _counts(bpy) == before
+
+
+def test_good_and_bad_files_together(bpy_empty, testdata, tmp_path):
+    bpy = bpy_empty
+    bad, _ = _huge_header(tmp_path, testdata)
+    (tmp_path / "test64.ply").write_bytes((testdata / "test64.ply").read_bytes())
+    with pytest.raises(RuntimeError, match="huge.ply: truncated"):
+        bpy.ops.import_scene.splatline_gaussians(directory=str(tmp_path),
+                                                 files=[{"name": "huge.ply"}, {"name": "test64.ply"}])
+    assert _counts(bpy) == (1, 1, 0)
+    assert bpy.data.objects[0].name == "test64"
+
+
+def test_nothing_left_when_options_select_nothing(bpy_empty, testdata):
+    from addon.blender.import_splats import import_file
+
+    with pytest.raises(SplatFormatError, match="no splats left"):
+        import_file(bpy_empty.context, testdata / "test64.ply", min_opacity=1.0 + 1e-6)
+    assert _counts(bpy_empty) == (0, 0, 0)
+
+
+def test_failure_inside_blender_build_leaves_nothing(bpy_empty, testdata):
+    """A failure after the mesh, helper object and PointCloud exist (linking into a removed
+    collection) is cleaned up too."""
+    from addon.blender.import_splats import import_file
+
+    bpy = bpy_empty
+    gone = bpy.data.collections.new("gone")
+    bpy.data.collections.remove(gone)
+    with pytest.raises(ReferenceError):
+        import_file(bpy.context, testdata / "test64.ply", collection=gone)
+    assert _counts(bpy) == (0, 0, 0)

@@ -1,9 +1,34 @@
-"""python -m addon convert (placeholder until its owner fills it in)."""
+"""python -m addon convert IN OUT: any readable format to .ply or .splat."""
+from __future__ import annotations
+
+import sys
+
+from ..core.formats import WRITE_FORMATS, WRITE_MAX_DEGREE, format_for_output, read_with_report, write
+from ..core.validate import POLICIES
 
 
 def configure(parser):
-    pass
+    parser.add_argument("input", help="a .ply, compressed .ply, .splat or .spz file")
+    parser.add_argument("output", help=f"output path; its extension picks the format ({', '.join(WRITE_FORMATS)})")
+    parser.add_argument("--sh-degree", type=int, choices=range(4), default=None,
+                        help="keep SH bands up to this degree")
+    parser.add_argument("--min-opacity", type=float, default=None,
+                        help="drop splats less opaque than this (0..1)")
+    parser.add_argument("--max-count", type=int, default=None,
+                        help="keep at most this many splats, the most important (opacity x volume)")
+    parser.add_argument("--bad", choices=POLICIES, default="drop",
+                        help="splats with NaN/Inf or zero quaternions: drop (default), fix "
+                             "(neutralise: invisible / identity rotation) or error")
 
 
 def run(args) -> int:
-    raise SystemExit("convert: not implemented yet")
+    fmt = format_for_output(args.output)  # fail on a bad output name before reading
+    splats, report = read_with_report(args.input, sh_degree=args.sh_degree,
+                                      min_opacity=args.min_opacity, max_count=args.max_count,
+                                      bad=args.bad)
+    if report.bad.total:
+        print(f"warning: {args.input}: {report.bad.summary()}", file=sys.stderr)
+    write(args.output, splats, fmt)
+    print(f"{args.input} ({report.format}, {report.count_in_file} splats) -> {args.output} "
+          f"({fmt}, {splats.count} splats, SH degree {min(splats.sh_degree, WRITE_MAX_DEGREE[fmt])})")
+    return 0

@@ -1,9 +1,52 @@
-"""python -m addon info (placeholder until its owner fills it in)."""
+"""python -m addon info FILE [--json]: count, SH degree, format, axes, bounds, bad values."""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+from ..core.formats import read_with_report
 
 
 def configure(parser):
-    pass
+    parser.add_argument("file", help="a .ply, compressed .ply, .splat or .spz file")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def summarize(path) -> dict:
+    """What `info` prints, as a dict (bad values are counted, not dropped)."""
+    splats, report = read_with_report(path, bad="fix")
+    finite = np.isfinite(splats.positions).all(axis=1) if splats.count else np.zeros(0, bool)
+    pos = splats.positions[finite]
+    bbox_min = pos.min(axis=0).tolist() if len(pos) else None
+    bbox_max = pos.max(axis=0).tolist() if len(pos) else None
+    return {
+        "file": os.fspath(path), "format": report.format, "count": splats.count,
+        "sh_degree": splats.sh_degree, "axes": splats.axes,
+        "bbox_min": bbox_min, "bbox_max": bbox_max,
+        "bad_values": report.bad.as_dict(),
+        "file_bytes": os.path.getsize(path),
+    }
+
+
+def _fmt_vec(v) -> str:
+    return "-" if v is None else "(" + ", ".join(f"{x:.4g}" for x in v) + ")"
 
 
 def run(args) -> int:
-    raise SystemExit("info: not implemented yet")
+    info = summarize(args.file)
+    if args.json:
+        print(json.dumps(info))
+        return 0
+    bad = info["bad_values"]
+    rows = [
+        ("file", info["file"]), ("format", info["format"]), ("splats", f"{info['count']:,}"),
+        ("SH degree", info["sh_degree"]), ("axes", info["axes"]),
+        ("bbox min", _fmt_vec(info["bbox_min"])), ("bbox max", _fmt_vec(info["bbox_max"])),
+        ("NaN/Inf splats", bad["nonfinite"]), ("zero quaternions", bad["zero_quaternions"]),
+    ]
+    width = max(len(k) for k, _ in rows)
+    for key, value in rows:
+        print(f"{key:<{width}}  {value}")
+    return 0

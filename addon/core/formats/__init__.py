@@ -20,6 +20,7 @@ from ._common import file_size
 
 READ_FORMATS = ("ply", "compressed_ply", "splat", "spz")
 WRITE_FORMATS = ("ply", "splat")
+WRITE_MAX_DEGREE = {"ply": 3, "splat": 0}  # .splat stores no higher SH bands
 EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz"}
 
 

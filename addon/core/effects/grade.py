@@ -1,0 +1,85 @@
+"""Colour grade by field: a gradient of two or more colour stops, indexed by height,
+distance or noise, blended onto the DC colour (the view-independent part).
+
+x = clip((f - low) / (high - low), 0, 1); g = piecewise-linear gradient of the stops at x;
+with c = C0 * dc + 0.5 the base colour, MIX gives c + amount (g - c), MULTIPLY
+c (1 + amount (g - 1)), ADD c + amount g. Only the DC changes: higher SH bands (the
+view-dependent sheen) are kept, and positions are never touched.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..sh import C0
+from .common import F32, EffectParams, local_columns
+from .noise import value_noise
+
+FIELDS = ("HEIGHT", "DISTANCE", "NOISE")
+MODES = ("MIX", "MULTIPLY", "ADD")
+
+
+@dataclass
+class Grade(EffectParams):
+    field: str = "HEIGHT"
+    stops: tuple = ((0.0, (0.1, 0.2, 1.0)), (1.0, (1.0, 0.4, 0.1)))
+    low: float = 0.0
+    high: float = 1.0
+    mode: str = "MIX"
+    frequency: float = 1.0
+    seed: int = 0
+
+
+def field_values(positions: np.ndarray, p: Grade) -> np.ndarray:
+    if p.field == "HEIGHT":
+        return local_columns(positions, p.frame, (2,))[0]
+    x, y, z = local_columns(positions, p.frame)
+    if p.field == "DISTANCE":
+        x *= x
+        x += y * y
+        x += z * z
+        return np.sqrt(x, out=x)
+    if p.field == "NOISE":
+        f = F32(p.frequency)
+        value = value_noise(x * f, y * f, z * f, p.seed)[0]
+        value += F32(1.0)
+        value *= F32(0.5)
+        return value
+    raise ValueError(f"Grade field {p.field!r} is not one of {FIELDS}")
+
+
+def gradient(x: np.ndarray, stops) -> list[np.ndarray]:
+    """Per-channel piecewise-linear colour at x; stops are (position, rgb), any order."""
+    ordered = sorted(stops, key=lambda s: s[0])
+    xs = np.array([s[0] for s in ordered], np.float64)
+    rgb = np.array([s[1] for s in ordered], np.float64)
+    return [np.interp(x, xs, rgb[:, c]).astype(F32) for c in range(3)]
+
+
+def apply(splats, p: Grade, time: float = 0.0):
+    if not p.active or not p.stops or splats.count == 0:
+        return splats
+    if p.mode not in MODES:
+        raise ValueError(f"Grade mode {p.mode!r} is not one of {MODES}")
+    x = field_values(splats.positions, p)
+    x -= F32(p.low)
+    x *= F32(1.0 / (p.high - p.low) if p.high != p.low else 1e12)
+    np.clip(x, 0.0, 1.0, out=x)
+    a = F32(p.amount)
+    dc = np.empty_like(splats.sh_dc)
+    for c, g in enumerate(gradient(x, p.stops)):
+        base = splats.sh_dc[:, c]
+        if p.mode == "ADD":
+            delta = g
+        else:
+            colour = base * F32(C0)
+            colour += F32(0.5)
+            if p.mode == "MIX":
+                delta = g - colour
+            else:
+                g -= F32(1.0)
+                delta = colour * g
+        delta *= a / F32(C0)
+        np.add(base, delta, out=dc[:, c])
+    return replace(splats, sh_dc=dc)

@@ -1,0 +1,124 @@
+"""Morph to target: blend every splat towards a partner in another splat set.
+
+The target must already be in the source object's space (the Blender layer maps it with the
+two objects' world matrices). Pairing (`pair`): by index when the counts match; otherwise a
+spatial-sort pairing: both sets are ordered along a 30-bit Morton curve over their joint
+bounding box, and the k-th splat of the smaller set pairs with the splat at rank
+floor((k + 0.5) * n_large / n_small) of the larger. Splats of the larger set left without a
+partner fade: unpaired source splats fade out, unpaired target splats fade in, each in
+place. At amount 0 the result is the source itself, at amount 1 the target itself.
+Position, scale, opacity and SH are blended linearly, rotation by slerp (shortest arc).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..splats import SplatSet, sh_coeff_count
+from .common import F32, EffectParams
+
+
+@dataclass
+class Pairing:
+    source: np.ndarray        # indices into the source, paired element-wise with `target`
+    target: np.ndarray
+    source_only: np.ndarray   # unpaired source indices (fade out)
+    target_only: np.ndarray   # unpaired target indices (fade in)
+
+
+@dataclass
+class Morph(EffectParams):
+    target: SplatSet | None = None
+    pairing: Pairing | None = None   # optional precomputed pair(source, target)
+
+
+def morton_order(positions: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    span = np.maximum(high - low, 1e-12)
+    cells = ((positions - low) / span * 1023.0).clip(0, 1023).astype(np.uint64)
+    code = np.zeros(positions.shape[0], np.uint64)
+    for bit in range(10):
+        for axis in range(3):
+            code |= ((cells[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
+    return np.argsort(code, kind="stable")
+
+
+def pair(source: np.ndarray, target: np.ndarray) -> Pairing:
+    n, m = source.shape[0], target.shape[0]
+    empty = np.zeros(0, np.int64)
+    if n == m:
+        every = np.arange(n)
+        return Pairing(every, every, empty, empty)
+    if n == 0 or m == 0:
+        return Pairing(empty, empty, np.arange(n), np.arange(m))
+    both = np.concatenate([source, target]).astype(np.float64)
+    low, high = both.min(axis=0), both.max(axis=0)
+    src_order, tgt_order = morton_order(source, low, high), morton_order(target, low, high)
+    small, large = (src_order, tgt_order) if n < m else (tgt_order, src_order)
+    ranks = ((np.arange(len(small)) + 0.5) * len(large) / len(small)).astype(np.int64)
+    leftover = np.ones(len(large), bool)
+    leftover[ranks] = False
+    if n < m:
+        return Pairing(small, large[ranks], empty, np.sort(large[leftover]))
+    return Pairing(large[ranks], small, np.sort(large[leftover]), empty)
+
+
+def _lerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
+    out = a * F32(1.0 - t)
+    out += b * F32(t)
+    return out
+
+
+def slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
+    dot = np.einsum("ij,ij->i", q0, q1)
+    q1 = np.where(dot[:, None] < 0, -q1, q1)
+    dot = np.abs(dot).clip(0.0, 1.0)
+    theta = np.arccos(dot)
+    sin = np.sin(theta)
+    near = sin < 1e-5
+    safe = np.where(near, 1.0, sin)
+    w0 = np.where(near, 1.0 - t, np.sin((1.0 - t) * theta) / safe).astype(F32)
+    w1 = np.where(near, t, np.sin(t * theta) / safe).astype(F32)
+    out = q0 * w0[:, None] + q1 * w1[:, None]
+    out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), F32(1e-12))
+    return out
+
+
+def _pad_rest(rest: np.ndarray, k: int) -> np.ndarray:
+    if rest.shape[1] == k:
+        return rest
+    out = np.zeros((rest.shape[0], k, 3), F32)
+    out[:, :rest.shape[1]] = rest
+    return out
+
+
+def blend(source: SplatSet, target: SplatSet, pairing: Pairing, t: float) -> SplatSet:
+    k = sh_coeff_count(max(source.sh_degree, target.sh_degree))
+    a, b = source.subset(pairing.source), target.subset(pairing.target)
+    parts = [SplatSet(
+        positions=_lerp(a.positions, b.positions, t), scales=_lerp(a.scales, b.scales, t),
+        rotations=slerp(a.rotations, b.rotations, t),
+        opacities=_lerp(a.opacities, b.opacities, t), sh_dc=_lerp(a.sh_dc, b.sh_dc, t),
+        sh_rest=_lerp(_pad_rest(a.sh_rest, k), _pad_rest(b.sh_rest, k), t), axes=source.axes)]
+    for s, idx, keep in ((source, pairing.source_only, 1.0 - t), (target, pairing.target_only, t)):
+        if len(idx):
+            lone = s.subset(idx)
+            parts.append(replace(lone, opacities=lone.opacities * F32(keep),
+                                 sh_rest=_pad_rest(lone.sh_rest, k), axes=source.axes))
+    if len(parts) == 1:
+        return parts[0]
+    return SplatSet(*(np.concatenate([getattr(p, f) for p in parts]) for f in
+                      ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")),
+                    axes=source.axes)
+
+
+def apply(splats: SplatSet, p: Morph, time: float = 0.0) -> SplatSet:
+    if not p.enabled or p.target is None or p.amount <= 0.0:
+        return splats
+    if p.amount >= 1.0:
+        return replace(p.target, axes=splats.axes)
+    pairing = p.pairing
+    if (pairing is None or len(pairing.source) + len(pairing.source_only) != splats.count
+            or len(pairing.target) + len(pairing.target_only) != p.target.count):
+        pairing = pair(splats.positions, p.target.positions)
+    return blend(splats, p.target, pairing, p.amount)

@@ -1,0 +1,71 @@
+"""Twist/Swirl around the gizmo's z axis (through its origin).
+
+angle = amount * (twist * h + swirl * exp(-(r / radius)^2)), with h the gizmo-local height
+and r the gizmo-local distance from the axis. Centres rotate rigidly about the axis in
+object space and each splat's orientation turns with them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .common import (F32, EffectParams, axis_angle_quats, frame_axis, frame_origin,
+                     local_columns, quat_multiply)
+
+
+@dataclass
+class Twist(EffectParams):
+    twist: float = 1.0    # radians per gizmo-local unit along the axis
+    swirl: float = 0.0    # radians at the axis, falling off with distance
+    radius: float = 1.0   # swirl falloff, gizmo-local units
+
+
+def angles(positions: np.ndarray, p: Twist) -> np.ndarray:
+    if p.swirl == 0.0:
+        (h,) = local_columns(positions, p.frame, (2,))
+        h *= F32(p.twist * p.amount)
+        return h
+    x, y, h = local_columns(positions, p.frame)
+    x *= x
+    x += y * y
+    x *= F32(-1.0 / max(p.radius, 1e-12) ** 2)
+    swirl = np.exp(x, out=x)
+    swirl *= F32(p.swirl)
+    h *= F32(p.twist)
+    h += swirl
+    h *= F32(p.amount)
+    return h
+
+
+def rotate_about_axis(positions, origin, axis, angle) -> np.ndarray:
+    """Rodrigues' rotation of the centres about the line (origin, unit axis)."""
+    o = origin.astype(F32)
+    a = axis.astype(F32)
+    cos, sin = np.cos(angle), np.sin(angle)
+    v = positions - o
+    along = v @ a                      # (N,)
+    out = np.empty_like(positions)
+    cross = (a[1] * v[:, 2] - a[2] * v[:, 1], a[2] * v[:, 0] - a[0] * v[:, 2],
+             a[0] * v[:, 1] - a[1] * v[:, 0])
+    one_minus = F32(1.0) - cos
+    one_minus *= along
+    for i in range(3):
+        col = v[:, i] * cos
+        col += cross[i] * sin
+        col += one_minus * a[i]
+        col += o[i]
+        out[:, i] = col
+    return out
+
+
+def apply(splats, p: Twist, time: float = 0.0):
+    if not p.active or (p.twist == 0.0 and p.swirl == 0.0) or splats.count == 0:
+        return splats
+    angle = angles(splats.positions, p)
+    origin, axis = frame_origin(p.frame), frame_axis(p.frame)
+    return replace(
+        splats,
+        positions=rotate_about_axis(splats.positions, origin, axis, angle),
+        rotations=quat_multiply(axis_angle_quats(axis, angle), splats.rotations),
+    )

@@ -1,0 +1,113 @@
+"""Object-level look: a colour matrix for the renderers, and crop shapes as per-splat opacity.
+
+Colour: the renderers apply RenderItem.color_matrix M (3x4) to the SH colour c (display-
+referred sRGB, after the +0.5, before the clamp at 0): c' = M[:, :3] c + M[:, 3]. Here
+    M = 2^exposure * diag(tint) * S(saturation) * H(hue)
+- H(hue) rotates the chroma of c about the grey axis while keeping its Rec.709 luma
+  Y = w.c: c = Y 1 + u with u in the plane w.u = 0; u turns by `hue` radians in an
+  orthonormal basis of that plane. H(a) H(b) = H(a + b) and H(2 pi) = I.
+- S(s) = (1 - s) 1 w^T + s I scales the chroma about the same luma: s = 0 is grey
+  with the same luma, s = 1 is unchanged, s > 1 boosts.
+- exposure is in stops on the display-referred value (x 2^e); tint multiplies per channel.
+All linear, so a look-only change touches no per-splat data.
+
+Crop: box (centre, full size) and sphere (centre, radius) in object (data) space. The weight
+is 1 inside, 0 outside, with a smoothstep over `softness` object units just inside the
+boundary; `invert` keeps the outside instead. The renderers see it as opacity.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .splats import SplatSet
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec.709 / sRGB primaries
+
+
+@dataclass(frozen=True)
+class CropBox:
+    center: tuple = (0.0, 0.0, 0.0)
+    size: tuple = (2.0, 2.0, 2.0)
+    softness: float = 0.0
+    invert: bool = False
+
+
+@dataclass(frozen=True)
+class CropSphere:
+    center: tuple = (0.0, 0.0, 0.0)
+    radius: float = 1.0
+    softness: float = 0.0
+    invert: bool = False
+
+
+def _chroma_basis() -> np.ndarray:
+    """(3, 2) orthonormal basis of the plane w.u = 0, oriented so that a positive hue
+    turns red towards yellow/green (as Blender's hue does)."""
+    e1 = np.cross(LUMA, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(LUMA / np.linalg.norm(LUMA), e1)
+    e2 /= np.linalg.norm(e2)
+    return np.stack([e1, e2], axis=1)
+
+
+def hue_matrix(angle: float) -> np.ndarray:
+    grey = np.outer(np.ones(3), LUMA)          # c -> Y 1
+    chroma = np.eye(3) - grey                  # c -> u
+    basis = _chroma_basis()
+    c, s = np.cos(angle), np.sin(angle)
+    turn = np.array([[c, -s], [s, c]])
+    return grey + basis @ turn @ basis.T @ chroma
+
+
+def saturation_matrix(s: float) -> np.ndarray:
+    return (1.0 - s) * np.outer(np.ones(3), LUMA) + s * np.eye(3)
+
+
+def color_matrix(tint=(1.0, 1.0, 1.0), exposure: float = 0.0, saturation: float = 1.0,
+                 hue: float = 0.0) -> np.ndarray:
+    linear = (2.0 ** exposure) * np.diag(np.asarray(tint, np.float64))
+    linear = linear @ saturation_matrix(saturation) @ hue_matrix(hue)
+    return np.hstack([linear, np.zeros((3, 1))])
+
+
+def _inside_weight(distance: np.ndarray, softness: float, invert: bool) -> np.ndarray:
+    """distance: signed, negative inside. Weight 1 at depth >= softness, 0 outside."""
+    if softness <= 0.0:
+        w = (distance < 0.0).astype(np.float32)
+    else:
+        w = np.clip(-distance / softness, 0.0, 1.0).astype(np.float32)
+        w = w * w * (3.0 - 2.0 * w)
+    return 1.0 - w if invert else w
+
+
+def box_distance(positions: np.ndarray, box: CropBox) -> np.ndarray:
+    q = np.abs(positions - np.asarray(box.center, np.float32)) - np.asarray(box.size, np.float32) / 2
+    outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+    return outside + np.minimum(q.max(axis=1), 0.0)
+
+
+def sphere_distance(positions: np.ndarray, sphere: CropSphere) -> np.ndarray:
+    return np.linalg.norm(positions - np.asarray(sphere.center, np.float32), axis=1) - sphere.radius
+
+
+def crop_weights(positions: np.ndarray, box: CropBox | None = None,
+                 sphere: CropSphere | None = None) -> np.ndarray | None:
+    """(N,) float32 opacity factors, or None when no crop is enabled."""
+    weight = None
+    if box is not None:
+        weight = _inside_weight(box_distance(positions, box), box.softness, box.invert)
+    if sphere is not None:
+        w = _inside_weight(sphere_distance(positions, sphere), sphere.softness, sphere.invert)
+        weight = w if weight is None else weight * w
+    return weight
+
+
+def apply_crop(splats: SplatSet, box: CropBox | None = None,
+               sphere: CropSphere | None = None) -> SplatSet:
+    """The splats with crop folded into their opacities (positions array shared)."""
+    weight = crop_weights(splats.positions, box, sphere)
+    if weight is None:
+        return splats
+    return replace(splats, opacities=splats.opacities * weight)

@@ -144,9 +144,9 @@ def test_read_ahead_fills_cache_and_stops(tmp_path):
     assert ahead.wait_idle(30)
     assert sorted(k[1] for k in cache.keys()) == [0, 1, 2, 3]
     np.testing.assert_array_equal(cache.get((paths[2], 2)).positions, read(paths[2]).positions)
+    thread = ahead._thread
     ahead.stop()
-    assert not ahead.running
-    assert not any(t.name == "splatline-readahead" for t in threading.enumerate())
+    assert not ahead.running and not thread.is_alive() and thread not in threading.enumerate()
 
 
 def test_read_ahead_respects_budget(tmp_path):

@@ -11,39 +11,45 @@ _LOOP_ITEMS = (
 )
 
 
+def _tag(self, _context):
+    # a Python-side change does not reach the evaluated copy by itself; tag the object so
+    # the next depsgraph evaluation (viewport, render, frame_set) sees the new value
+    self.id_data.update_tag()
+
+
 class SequenceSettings(bpy.types.PropertyGroup):
-    enabled: bpy.props.BoolProperty(
+    enabled: bpy.props.BoolProperty(update=_tag, 
         name="Sequence", default=False, options=set(),
         description="Show the frames of a splat sequence instead of the object's own points")
-    directory: bpy.props.StringProperty(
-        name="Directory", subtype="DIR_PATH", options=set(),
+    directory: bpy.props.StringProperty(update=_tag, 
+        name="Directory", subtype="DIR_PATH", options={"PATH_SUPPORTS_BLEND_RELATIVE"},
         description="Folder of the frame files ('//' = relative to the .blend)")
-    prefix: bpy.props.StringProperty(name="Prefix", options=set(),
+    prefix: bpy.props.StringProperty(update=_tag, name="Prefix", options=set(),
                                      description="File name before the frame number")
-    suffix: bpy.props.StringProperty(name="Suffix", default=".ply", options=set(),
+    suffix: bpy.props.StringProperty(update=_tag, name="Suffix", default=".ply", options=set(),
                                      description="File name after the frame number (extension)")
-    digits: bpy.props.IntProperty(name="Digits", default=4, min=1, max=12, options=set(),
+    digits: bpy.props.IntProperty(update=_tag, name="Digits", default=4, min=1, max=12, options=set(),
                                   description="Zero padding of the frame number")
-    first_number: bpy.props.IntProperty(name="First Number", default=1, min=0, options=set(),
+    first_number: bpy.props.IntProperty(update=_tag, name="First Number", default=1, min=0, options=set(),
                                         description="Number in the first frame's file name")
-    frame_count: bpy.props.IntProperty(name="Frames", default=1, min=1, options=set(),
+    frame_count: bpy.props.IntProperty(update=_tag, name="Frames", default=1, min=1, options=set(),
                                        description="Frames in the sequence (missing files included)")
-    start_frame: bpy.props.IntProperty(
+    start_frame: bpy.props.IntProperty(update=_tag, 
         name="Start Frame", default=1, options=set(),
         description="Scene frame at which the sequence shows its first frame (before offset)")
-    frame_offset: bpy.props.FloatProperty(
+    frame_offset: bpy.props.FloatProperty(update=_tag, 
         name="Offset", default=0.0,
         description="Sequence frames added to the mapped time (animatable)")
-    speed: bpy.props.FloatProperty(
+    speed: bpy.props.FloatProperty(update=_tag, 
         name="Speed", default=1.0, soft_min=-4.0, soft_max=4.0,
         description="Sequence frames per scene frame; 0 freezes on the offset frame (animatable)")
-    loop_mode: bpy.props.EnumProperty(
+    loop_mode: bpy.props.EnumProperty(update=_tag, 
         name="Loop", items=_LOOP_ITEMS, default=core_sequence.HOLD,
         description="What plays outside the sequence's range (animatable)")
-    cache_budget_mb: bpy.props.IntProperty(
+    cache_budget_mb: bpy.props.IntProperty(update=_tag, 
         name="Cache Budget (MB)", default=512, min=0, soft_max=16384, options=set(),
         description="Memory for decoded frames beyond the current one (read-ahead and recent frames)")
-    read_ahead: bpy.props.IntProperty(
+    read_ahead: bpy.props.IntProperty(update=_tag, 
         name="Read-Ahead", default=4, min=0, max=64, options=set(),
         description="Upcoming frames decoded in the background while the budget allows")
 

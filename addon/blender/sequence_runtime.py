@@ -52,10 +52,10 @@ class SequenceRuntime:
         problems = []
         for index in _candidates(wanted, pattern.count):
             path = os.path.abspath(pattern.path(index))
-            got = self._get(path, index, problems)
+            got = self._get(owner, path, index, problems)
             if got is not None:
                 splats, key = got
-                self.cache.pin(owner, key)
+                self.cache.pin(owner, key[:2])
                 self._report(owner, problems, index)
                 self._schedule(pattern, time, (start, speed, offset, mode), read_ahead, splats)
                 return SequenceFrame(splats, index, wanted, path, key)
@@ -63,7 +63,7 @@ class SequenceRuntime:
         self.cache.unpin(owner)
         return SequenceFrame(SplatSet.empty(), wanted, wanted, "", ("<none>", wanted, None))
 
-    def _get(self, path, index, problems):
+    def _get(self, owner, path, index, problems):
         signature = core_sequence.file_signature(path)
         if signature is None:
             problems.append((path, "missing"))
@@ -76,7 +76,7 @@ class SequenceRuntime:
             except SplatFormatError as exc:
                 problems.append((path, exc.reason))
                 return None
-            self.cache.put(key, splats, signature)
+            self.cache.put(key, splats, signature, owner=owner)
         return splats, key + (signature,)
 
     def _report(self, owner, problems, shown) -> None:

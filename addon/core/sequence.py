@@ -151,9 +151,13 @@ class FrameCache:
         with self._lock:
             return list(self._entries)
 
-    def put(self, key, splats, signature=None) -> None:
+    def put(self, key, splats, signature=None, owner=None) -> None:
+        """Insert (replacing) key; with owner, also pin it as that owner's current frame
+        before evicting, so a current frame larger than the budget is still kept."""
         size = splats_nbytes(splats)
         with self._lock:
+            if owner is not None:
+                self._pinned[owner] = key
             old = self._entries.pop(key, None)
             if old is not None:
                 self.nbytes -= old[2]

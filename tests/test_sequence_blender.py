@@ -1,0 +1,223 @@
+"""Splat sequences through real bpy: import, playback per frame, loop modes, keyframed timing,
+missing frames, the .blend keeping only the path, and the read-ahead thread's lifetime."""
+from __future__ import annotations
+
+import logging
+import os
+import shutil
+import threading
+
+import numpy as np
+import pytest
+
+from addon.core import sequence as core_sequence
+from addon.core.formats import read, write
+from addon.core.formats.synth import random_splats
+
+N_FRAMES = 5
+FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
+
+
+def write_frames(directory, count=N_FRAMES, n=40, degree=1, first=1):
+    """Frames that differ everywhere (each frame its own random set) as frame_NNNN.ply."""
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for i in range(count):
+        path = directory / f"frame_{first + i:04d}.ply"
+        write(path, random_splats(n, degree=degree, seed=100 + i))
+        paths.append(path)
+    return paths
+
+
+def item_of(bpy, obj, frame):
+    from addon.blender.evaluate import collect_items
+
+    bpy.context.scene.frame_set(frame)
+    items = [i for i in collect_items(bpy.context.evaluated_depsgraph_get()) if i.key[0] == obj.name]
+    assert len(items) == 1
+    return items[0]
+
+
+def assert_same(a, b):
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def shown_frames(bpy, obj, frames, truth):
+    """Which source frame (by exact position match) is shown at each scene frame."""
+    out = []
+    for f in frames:
+        pos = item_of(bpy, obj, f).splats.positions
+        hits = [k for k, t in enumerate(truth) if np.array_equal(pos, t.positions)]
+        assert len(hits) == 1, f"frame {f}: matches {hits}"
+        out.append(hits[0])
+    return out
+
+
+@pytest.fixture
+def frames(tmp_path):
+    paths = write_frames(tmp_path / "seq")
+    return paths, [read(p) for p in paths]
+
+
+@pytest.fixture
+def seq_import(bpy_empty):
+    from addon.blender.sequence_io import import_sequence
+
+    return lambda path, **kw: import_sequence(bpy_empty.context, path, **kw)
+
+
+def test_import_plays_each_frame_exactly(bpy_empty, frames, seq_import):
+    from addon.blender.pointcloud import splats_from_pointcloud
+
+    paths, truth = frames
+    obj = seq_import(paths[0].parent)
+    assert len([o for o in bpy_empty.data.objects]) == 1
+    seq = obj.splatline.sequence
+    assert (seq.enabled, seq.frame_count, seq.first_number, seq.start_frame) == (True, 5, 1, 1)
+    assert_same(splats_from_pointcloud(obj.data), truth[0])  # PointCloud holds frame 1
+    for f in (1, 2, 3, 4, 5, 3, 1):  # forwards, then scrubbing back
+        assert_same(item_of(bpy_empty, obj, f).splats, truth[f - 1])
+    assert_same(item_of(bpy_empty, obj, 9).splats, truth[4])   # HOLD after the end
+    assert_same(item_of(bpy_empty, obj, -2).splats, truth[0])  # and before the start
+    # the item key changes with the frame, so caches downstream re-upload
+    assert item_of(bpy_empty, obj, 2).key != item_of(bpy_empty, obj, 3).key
+
+
+def test_import_from_a_file_and_scene_start_alignment(bpy_empty, tmp_path, seq_import):
+    paths = write_frames(tmp_path / "s", count=3, first=0)
+    truth = [read(p) for p in paths]
+    bpy_empty.context.scene.frame_start = 10
+    obj = seq_import(paths[1], align="SCENE_START", set_scene_range=True)
+    assert obj.splatline.sequence.start_frame == 10
+    assert (bpy_empty.context.scene.frame_start, bpy_empty.context.scene.frame_end) == (10, 12)
+    assert shown_frames(bpy_empty, obj, [9, 10, 11, 12, 13], truth) == [0, 0, 1, 2, 2]
+
+
+@pytest.mark.parametrize("mode", ["LOOP", "PING_PONG", "HOLD"])
+def test_loop_modes(bpy_empty, frames, seq_import, mode):
+    paths, truth = frames
+    obj = seq_import(paths[0].parent, loop_mode=mode)
+    scene_frames = list(range(-3, 14))
+    expected = [core_sequence.frame_index(t, 5, 1, 1.0, 0.0, mode) for t in scene_frames]
+    assert shown_frames(bpy_empty, obj, scene_frames, truth) == expected
+    assert len(set(expected)) == 5
+    if mode == "PING_PONG":
+        assert expected[4:14] == [0, 1, 2, 3, 4, 3, 2, 1, 0, 1]  # frames 1..10
+
+
+def test_offset_speed_and_loop_mode_keyframed(bpy_empty, frames, seq_import):
+    paths, truth = frames
+    obj = seq_import(paths[0].parent)
+    seq = obj.splatline.sequence
+    seq.speed = 0.0
+    seq.keyframe_insert("speed", frame=1)
+    seq.frame_offset = 0.0
+    seq.keyframe_insert("frame_offset", frame=1)
+    seq.frame_offset = 4.0
+    seq.keyframe_insert("frame_offset", frame=3)       # linear 0 -> 4 over frames 1..3
+    seq.speed = 2.0
+    seq.keyframe_insert("speed", frame=6)
+    seq.loop_mode = "HOLD"
+    seq.keyframe_insert("loop_mode", frame=1)
+    seq.loop_mode = "LOOP"
+    seq.keyframe_insert("loop_mode", frame=7)
+    for fc in _fcurves(obj):
+        for key in fc.keyframe_points:
+            key.interpolation = "LINEAR"
+    # frame 1: offset 0 speed 0 -> 0; frame 2: offset 2 -> 2; frame 3..5: offset 4 -> 4 (speed
+    # ramps 0 -> 2 over 1..6 but the local time is (t-1)*speed + 4 >= 4: HOLD keeps 4);
+    # frame 7: speed 2, LOOP: (7-1)*2 + 4 = 16 -> 16 % 5 = 1
+    got = shown_frames(bpy_empty, obj, [1, 2, 3, 7], truth)
+    assert got == [0, 2, 4, 1]
+    # the evaluated object carries the animated values the mapping used
+    bpy_empty.context.scene.frame_set(2)
+    ev = obj.evaluated_get(bpy_empty.context.evaluated_depsgraph_get()).splatline.sequence
+    assert ev.frame_offset == pytest.approx(2.0) and ev.speed == pytest.approx(0.4)
+
+
+def _fcurves(obj):
+    """Blender 5 slotted actions keep fcurves in layers/strips/channelbags."""
+    action = obj.animation_data.action
+    for layer in action.layers:
+        for strip in layer.strips:
+            for bag in strip.channelbags:
+                yield from bag.fcurves
+
+
+def test_missing_frame_holds_previous_and_is_reported_once(bpy_empty, frames, seq_import, caplog):
+    from addon.blender import sequence_runtime
+
+    paths, truth = frames
+    obj = seq_import(paths[0].parent)
+    os.remove(paths[2])  # frame 3 goes missing after import
+    caplog.set_level(logging.WARNING, logger="splatline.sequence")
+    for _ in range(3):
+        assert_same(item_of(bpy_empty, obj, 3).splats, truth[1])  # holds frame 2
+    report = sequence_runtime.report_for(obj)
+    assert "frame_0003.ply" in report and "missing" in report and "holding frame 1" in report
+    warnings = [r for r in caplog.records if "frame_0003.ply" in r.getMessage()]
+    assert len(warnings) == 1
+    assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])
+    assert sequence_runtime.report_for(obj) == ""
+    # a corrupt frame is held over as well, and its reason reported
+    paths[3].write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nend_header\n")
+    assert_same(item_of(bpy_empty, obj, 4).splats, truth[1])
+    assert "frame_0004.ply" in sequence_runtime.report_for(obj)
+
+
+def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):
+    project = tmp_path / "project"
+    paths = write_frames(project / "frames", count=12, n=400, degree=2)
+    truth = [read(p) for p in paths]
+    blend = project / "scene.blend"
+    bpy = bpy_empty
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    obj = seq_import(paths[0].parent)
+    name = obj.name
+    assert obj.splatline.sequence.directory.startswith("//")  # relative to the .blend
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    frame_bytes = sum(p.stat().st_size for p in paths)
+    one_frame = paths[0].stat().st_size
+    # the .blend holds the first frame's PointCloud (Solid mode, Blender 5.3) and the
+    # pattern: far less than two frames beyond an empty scene, not all twelve
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    empty = tmp_path / "empty.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(empty))
+    extra = blend.stat().st_size - empty.stat().st_size
+    print(f"blend extra {extra} B, one frame {one_frame} B, all frames {frame_bytes} B")
+    assert frame_bytes == 12 * one_frame
+    assert extra < 1.5 * one_frame
+    # move the whole project: the relative path still finds the frames
+    moved = tmp_path / "moved"
+    shutil.move(str(project), str(moved))
+    bpy.ops.wm.open_mainfile(filepath=str(moved / "scene.blend"))
+    obj = bpy.data.objects[name]
+    for f in (1, 7, 12):
+        assert_same(item_of(bpy, obj, f).splats, truth[f - 1])
+
+
+def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_import):
+    from addon.blender import sequence_ops, sequence_runtime
+
+    paths, truth = frames
+    obj = seq_import(paths[0].parent)
+    seq = obj.splatline.sequence
+    item_of(bpy_empty, obj, 1)
+    rt = sequence_runtime.runtime()
+    assert rt.read_ahead.wait_idle(30)
+    mine = str(paths[0].parent)
+    cached = {k[1] for k in rt.cache.keys() if k[0].startswith(mine)}
+    assert cached == {0, 1, 2, 3, 4}  # frame 1 plus read-ahead of 4 (default)
+    frame_bytes = core_sequence.splats_nbytes(truth[0])
+    seq.cache_budget_mb = 0  # only the current frame may stay
+    item_of(bpy_empty, obj, 3)
+    assert rt.read_ahead.wait_idle(30)
+    assert [k[1] for k in rt.cache.keys()] == [2] and rt.cache.nbytes == frame_bytes
+    assert rt.read_ahead.running
+    sequence_ops.unregister()
+    try:
+        assert not any(t.name == "splatline-readahead" for t in threading.enumerate())
+    finally:
+        sequence_ops.register()
+    assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])  # a fresh runtime after re-register

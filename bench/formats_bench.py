@@ -1,0 +1,106 @@
+"""Reader speed: a generated 1M-splat degree-3 INRIA PLY (about 248 MB) read into a SplatSet,
+beside Blender's C++ wm.ply_import of the same file (when bpy is importable) and a plain
+np.fromfile of its bytes, all in the same run; plus every testdata capture.
+
+    python -m bench.formats_bench [--count N] [--runs R]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import pathlib
+import statistics
+import tempfile
+import time
+import tracemalloc
+
+import numpy as np
+
+from addon.core.formats import read
+from addon.core.formats.ply import write_ply
+from addon.core.formats.synth import random_splats
+
+TESTDATA = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "testdata"
+
+
+def timed(fn, runs: int):
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def peak_bytes(fn) -> int:
+    tracemalloc.start()
+    try:
+        fn()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+class _quiet_stdout:
+    """Blender's importer prints a line per call from C; keep the table readable."""
+
+    def __enter__(self):
+        self.saved = os.dup(1)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)
+        os.close(devnull)
+
+    def __exit__(self, *exc):
+        os.dup2(self.saved, 1)
+        os.close(self.saved)
+
+
+def blender_ply_import(path):
+    """A callable running Blender's own importer, or None without bpy."""
+    try:
+        import bpy
+    except ImportError:
+        return None
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+    def run():
+        with _quiet_stdout():
+            bpy.ops.wm.ply_import(filepath=str(path))
+        for obj in list(bpy.data.objects):
+            bpy.data.objects.remove(obj)
+        for mesh in list(bpy.data.meshes):
+            bpy.data.meshes.remove(mesh)
+    return run
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--count", type=int, default=1_000_000)
+    ap.add_argument("--runs", type=int, default=5)
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = pathlib.Path(tmp) / "bench.ply"
+        write_ply(path, random_splats(args.count, 3))
+        size = os.path.getsize(path)
+        rows = [("np.fromfile of the bytes (floor)", timed(lambda: np.fromfile(path, np.uint8), args.runs), None)]
+        ours = timed(lambda: read(path), args.runs)
+        rows.append(("splatline read() (decode + validate)", ours, peak_bytes(lambda: read(path))))
+        blender = blender_ply_import(path)
+        if blender is not None:
+            blender()  # warm-up: first operator call initialises Blender's importer
+            rows.append(("blender wm.ply_import (C++)", timed(blender, args.runs), None))
+        print(f"{args.count:,} splats, SH degree 3, {size / 1e6:.0f} MB; median of {args.runs} runs")
+        print(f"{'reader':<40} {'seconds':>8} {'peak MB':>8}")
+        for name, sec, peak in rows:
+            print(f"{name:<40} {sec:8.3f} {'' if peak is None else f'{peak / 1e6:8.0f}'}")
+        if blender is not None:
+            print(f"ratio splatline / blender: {ours / rows[-1][1]:.2f} (goal <= 1.0)")
+    print(f"\n{'testdata file':<28} {'splats':>8} {'ms':>8}")
+    for f in sorted(TESTDATA.glob("*.*")):
+        if f.suffix in (".ply", ".splat", ".spz"):
+            ms = timed(lambda: read(f), args.runs) * 1e3
+            print(f"{f.name:<28} {read(f).count:>8} {ms:8.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -13,7 +13,7 @@ from _spz_encode import blocks, encode
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read, read_with_report, write
 from addon.core.formats.ply import write_ply
-from addon.core.formats.synth import random_splats
+from addon.core.formats.synth import random_splats, write_ply_variant
 
 
 def fails(path, *words, **opts):
@@ -60,6 +60,18 @@ def test_huge_vertex_count_rejected_before_allocating(tmp_path):
     finally:
         tracemalloc.stop()
     assert peak < 2_000_000
+
+
+def test_bad_ascii_bodies(tmp_path):
+    path = tmp_path / "a.ply"
+    write_ply_variant(path, random_splats(5, 0), "ascii")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(lines[:-1]) + "\n")
+    fails(path, "truncated", "4 of 5")
+    path.write_text("\n".join(lines[:-1] + ["nan_or_not 1 2"]) + "\n")
+    fails(path, "ascii")
+    path.write_text("\n".join(lines[:-1] + [lines[-1] + " 9"]) + "\n")
+    fails(path, "ascii")
 
 
 def test_huge_ascii_count(tmp_path):

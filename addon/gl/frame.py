@@ -40,6 +40,7 @@ class FrameState:
         self.capacity = 0
         self.arrays: dict = {}
         self.targets: dict = {}
+        self.last = (None, 0, 0)
 
     # -- frame-wide arrays -------------------------------------------------------------
     def _ensure(self, n: int):
@@ -137,7 +138,20 @@ class FrameState:
             rgba[y0:y0 + h, x0:x0 + w] = self._draw_tile(tile, visible, bg)
             depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(tile, visible)
         self.stats["frames"] += 1
+        self.last = (order, visible, n)
         return RenderOutput(rgba, depth)
+
+    def last_order(self) -> np.ndarray:
+        """Global indices (concatenated items) of the last frame, back to front."""
+        order, visible, _ = self.last
+        return np.frombuffer(order.read(size=4 * visible), np.uint32).copy() if visible else \
+            np.zeros(0, np.uint32)
+
+    def last_depths(self) -> np.ndarray:
+        """View depth per global splat of the last frame (+inf where culled)."""
+        _, _, n = self.last
+        return np.frombuffer(self.arrays["depth"].read(size=4 * n), np.float32).copy() if n else \
+            np.zeros(0, np.float32)
 
     def release(self):
         self.cache.release()

@@ -45,6 +45,14 @@ class OffscreenRenderer:
                options: RenderOptions = RenderOptions()) -> RenderOutput:
         return self._worker.call(self._state.render, list(items), camera, options)
 
+    def last_order(self):
+        """Back-to-front global splat indices of the last frame (for tests and tools)."""
+        return self._worker.call(self._state.last_order)
+
+    def last_depths(self):
+        """Per-splat view depths of the last frame, +inf where culled."""
+        return self._worker.call(self._state.last_depths)
+
     @property
     def depth_steps(self) -> int:
         """Bisection steps the depth pass took in the last frame (log2 of the visible count)."""

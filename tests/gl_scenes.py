@@ -1,0 +1,47 @@
+"""Small scenes and metrics shared by the offscreen-renderer tests (tests/test_gl_*.py)."""
+from __future__ import annotations
+
+import numpy as np
+
+from addon.core.axes import matrix_for
+from addon.core.camera import look_at, simple_camera
+from addon.core.scene import RenderItem
+from addon.core.splats import SplatSet
+
+
+def random_splats(n: int, degree: int = 0, seed: int = 0, spread: float = 0.5,
+                  log_scale: float = -3.0) -> SplatSet:
+    rng = np.random.default_rng(seed)
+    s = SplatSet.allocate(n, degree)
+    s.positions[:] = rng.normal(0.0, spread, (n, 3))
+    s.scales[:] = np.exp(rng.normal(log_scale, 0.5, (n, 3)))
+    q = rng.normal(size=(n, 4))
+    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    s.opacities[:] = rng.uniform(0.05, 1.0, n)
+    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
+    s.sh_rest[:] = rng.normal(0.0, 0.25, s.sh_rest.shape)
+    return s
+
+
+def world_for(splats: SplatSet, translation=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """Object matrix carrying the file's axis convention (as an import would)."""
+    m = np.eye(4)
+    m[:3, :3] = matrix_for(splats.axes)
+    m[:3, 3] = translation
+    return m
+
+
+def framing_camera(item: RenderItem, width: int, height: int, fov: float = 50.0,
+                   direction=(0.3, -1.0, 0.35), distance: float = 1.6):
+    """A camera looking at the item's middle from `distance` times its extent."""
+    pos = item.splats.positions.astype(np.float64) @ item.world[:3, :3].T + item.world[:3, 3]
+    lo, hi = np.percentile(pos, 2, axis=0), np.percentile(pos, 98, axis=0)
+    centre, size = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
+    d = np.asarray(direction, np.float64)
+    eye = centre - d / np.linalg.norm(d) * size * distance
+    return simple_camera(width, height, fov, look_at(eye, centre), near=0.01 * size, far=100.0 * size)
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)

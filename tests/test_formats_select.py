@@ -60,3 +60,17 @@ def test_splat_write_read_round_trip(tmp_path, testdata):
     assert np.abs(got.opacities - src.opacities).max() <= 0.5 / 255 + eps
     sign = np.sign(np.einsum("ij,ij->i", got.rotations, src.rotations))[:, None]
     assert np.abs(got.rotations * sign - src.rotations).max() <= 1 / 64 + eps
+
+
+def test_write_reexpresses_other_conventions(tmp_path, testdata):
+    """An spz declared RUB (Niantic's convention) written to .ply lands in RDF: a half turn
+    about x, so y and z flip and the Blender-frame positions are unchanged."""
+    from addon.core.axes import matrix_for
+
+    rub = read(testdata / "test64.spz", axes="RUB")
+    write(tmp_path / "r.ply", rub)
+    rdf = read(tmp_path / "r.ply")
+    assert rdf.axes == "RDF"
+    np.testing.assert_allclose(rdf.positions, rub.positions * [1, -1, -1], atol=1e-7)
+    np.testing.assert_allclose(rdf.positions @ matrix_for("RDF").T, rub.positions @ matrix_for("RUB").T,
+                               atol=1e-6)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import sys
 
 from ..core.formats import WRITE_FORMATS, WRITE_MAX_DEGREE, format_for_output, read_with_report, write
+from ..core.splats import AXES
 from ..core.validate import POLICIES
 
 
@@ -16,6 +17,9 @@ def configure(parser):
                         help="drop splats less opaque than this (0..1)")
     parser.add_argument("--max-count", type=int, default=None,
                         help="keep at most this many splats, the most important (opacity x volume)")
+    parser.add_argument("--axes", choices=AXES, default=None,
+                        help="the input's axis convention when the file misdeclares it (e.g. RUB "
+                             "for an spz from Niantic's tools); the output is re-expressed in its own")
     parser.add_argument("--bad", choices=POLICIES, default="drop",
                         help="splats with NaN/Inf or zero quaternions: drop (default), fix "
                              "(neutralise: invisible / identity rotation) or error")
@@ -25,7 +29,7 @@ def run(args) -> int:
     fmt = format_for_output(args.output)  # fail on a bad output name before reading
     splats, report = read_with_report(args.input, sh_degree=args.sh_degree,
                                       min_opacity=args.min_opacity, max_count=args.max_count,
-                                      bad=args.bad)
+                                      bad=args.bad, axes=args.axes)
     if report.bad.total:
         print(f"warning: {args.input}: {report.bad.summary()}", file=sys.stderr)
     write(args.output, splats, fmt)

@@ -14,13 +14,15 @@ from dataclasses import dataclass, field
 
 from ..errors import SplatFormatError
 from ..select import select
-from ..splats import AXES, SplatSet
+from ..reframe import reframe
+from ..splats import AXES, AXES_RDF, SplatSet
 from ..validate import BadValues, check_values
 from ._common import file_size
 
 READ_FORMATS = ("ply", "compressed_ply", "splat", "spz")
 WRITE_FORMATS = ("ply", "splat")
 WRITE_MAX_DEGREE = {"ply": 3, "splat": 0}  # .splat stores no higher SH bands
+WRITE_AXES = {"ply": AXES_RDF, "splat": AXES_RDF}  # the convention each writable format holds
 EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz"}
 
 
@@ -100,7 +102,11 @@ def format_for_output(path) -> str:
 
 
 def write(path, splats: SplatSet, format=None) -> None:
+    """Write in the format's own axis convention: a set in another convention (an spz read
+    as RUB, a procedural RFU set) is re-expressed first, so the file means the same thing."""
     fmt = format or format_for_output(path)
+    if fmt in WRITE_AXES:
+        splats = reframe(splats, WRITE_AXES[fmt])
     if os.path.isdir(path):
         raise SplatFormatError(path, "is a directory")
     if fmt == "ply":

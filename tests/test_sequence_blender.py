@@ -80,6 +80,8 @@ def test_import_plays_each_frame_exactly(bpy_empty, frames, seq_import):
         assert_same(item_of(bpy_empty, obj, f).splats, truth[f - 1])
     assert_same(item_of(bpy_empty, obj, 9).splats, truth[4])   # HOLD after the end
     assert_same(item_of(bpy_empty, obj, -2).splats, truth[0])  # and before the start
+    # cached frames are shared, so read-only: in-place effects cannot corrupt them
+    assert not item_of(bpy_empty, obj, 2).splats.positions.flags.writeable
     # the item key changes with the frame, so caches downstream re-upload
     assert item_of(bpy_empty, obj, 2).key != item_of(bpy_empty, obj, 3).key
 
@@ -221,3 +223,18 @@ def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_impo
     finally:
         sequence_ops.register()
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])  # a fresh runtime after re-register
+
+
+def test_import_operator_from_folder_or_file(bpy_empty, tmp_path):
+    bpy = bpy_empty
+    write_frames(tmp_path / "a", count=3)
+    other = write_frames(tmp_path / "a", count=2, first=7)  # same prefix, later numbers
+    assert bpy.ops.import_scene.splatline_sequence(directory=str(tmp_path / "a")) == {"FINISHED"}
+    seq = bpy.context.active_object.splatline.sequence
+    assert (seq.first_number, seq.frame_count) == (1, 8)  # 4..6 are missing frames
+    assert bpy.ops.import_scene.splatline_sequence(filepath=str(other[0]), loop_mode="LOOP") == {"FINISHED"}
+    assert bpy.context.active_object.splatline.sequence.loop_mode == "LOOP"
+    assert len(bpy.data.objects) == 2
+    with pytest.raises(RuntimeError, match="no numbered splat files"):
+        bpy.ops.import_scene.splatline_sequence(directory=str(tmp_path))
+    assert len(bpy.data.objects) == 2 and len(bpy.data.pointclouds) == 2

@@ -5,7 +5,7 @@ None for an object that is not a sequence. Everything here is owned by one Seque
 created on first use and torn down by `shutdown()` (sequence_ops.unregister), which also
 joins the read-ahead thread; nothing is stored on bpy.
 
-What is shown is decided synchronously (the mapped frame, or the previous available one when
+Cached frames are shared and read-only (see _load). What is shown is decided synchronously (the mapped frame, or the previous available one when
 its file is missing or unreadable), so it never depends on the read-ahead thread's timing.
 """
 from __future__ import annotations
@@ -35,7 +35,13 @@ class SequenceFrame:
 
 
 def _load(path) -> SplatSet:
-    return read(path)
+    """Decode a frame. Its arrays are shared by the cache and every item built from them,
+    so they are made read-only: an effect writing in place fails loudly instead of
+    corrupting the cached frame for the next evaluation."""
+    splats = read(path)
+    for name in ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"):
+        getattr(splats, name).setflags(write=False)
+    return splats
 
 
 class SequenceRuntime:

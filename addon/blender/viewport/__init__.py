@@ -15,20 +15,30 @@ _shared = None  # renderer for draw_items callers that bring none (the engine's 
 
 
 def draw_items(items, view_matrix, projection_matrix, viewport_size, settings=None,
-               displays=None, renderer: ViewportRenderer | None = None) -> ViewportRenderer:
+               displays=None, renderer: ViewportRenderer | None = None,
+               occlude: bool = True) -> ViewportRenderer:
     """Draw RenderItems into the bound framebuffer, sorted back to front.
 
     view_matrix: world -> camera (Blender, looks down -z); projection_matrix: OpenGL
     clip matrix; viewport_size: (width, height) pixels of the bound framebuffer.
-    The caller sets the depth test; splats never write depth.
+    occlude: test against the bound depth buffer (the scene's meshes hide splats behind
+    them); splats never write depth, so they do not hide each other or the overlays.
     """
+    import gpu
+
     global _shared
     if renderer is None:
         if _shared is None:
             _shared = ViewportRenderer()
         renderer = _shared
-    renderer.draw(items, view_matrix, projection_matrix, viewport_size,
-                  settings or DrawSettings(), displays)
+    if occlude:
+        gpu.state.depth_test_set("LESS_EQUAL")
+    try:
+        renderer.draw(items, view_matrix, projection_matrix, viewport_size,
+                      settings or DrawSettings(), displays)
+    finally:
+        if occlude:
+            gpu.state.depth_test_set("NONE")
     return renderer
 
 

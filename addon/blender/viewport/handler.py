@@ -14,6 +14,7 @@ import traceback
 import bpy
 import gpu
 
+from . import draw_items
 from .renderer import DrawSettings, ViewportRenderer
 from .scene_items import SceneItems
 
@@ -94,10 +95,8 @@ class ViewportDrawer:
             if not items:
                 self.renderer.stats.total = self.renderer.stats.drawn = 0
                 return
-            gpu.state.depth_test_set("LESS_EQUAL")
-            self.renderer.draw(items, rv3d.view_matrix, rv3d.window_matrix,
-                               (region.width, region.height), self.settings, displays)
-            gpu.state.depth_test_set("NONE")
+            draw_items(items, rv3d.view_matrix, rv3d.window_matrix, (region.width, region.height),
+                       self.settings, displays, self.renderer, occlude=True)
             if self.renderer.sorting and not bpy.app.timers.is_registered(_redraw_timer):
                 bpy.app.timers.register(_redraw_timer, first_interval=POLL_SECONDS)
         except Exception as exc:  # a draw callback must never raise into Blender's draw loop

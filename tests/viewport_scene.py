@@ -1,0 +1,77 @@
+"""The two-object scene and the offscreen drawing helper of the viewport tests."""
+from __future__ import annotations
+
+import numpy as np
+
+from addon.core.camera import look_at, simple_camera
+from addon.core.formats import read
+from addon.core.scene import RenderItem
+from addon.core.splats import SplatSet
+
+
+def rotation(axis, degrees) -> np.ndarray:
+    a = np.asarray(axis, np.float64) / np.linalg.norm(axis)
+    t = np.radians(degrees)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(t) * k + (1 - np.cos(t)) * k @ k
+
+
+def blob(n: int, degree: int, seed: int, centre, spread: float) -> SplatSet:
+    rng = np.random.default_rng(seed)
+    s = SplatSet.allocate(n, degree)
+    s.positions[:] = rng.normal(0.0, spread, (n, 3)) + np.asarray(centre)
+    s.scales[:] = np.exp(rng.normal(np.log(0.4 * spread), 0.5, (n, 3)))
+    q = rng.normal(size=(n, 4))
+    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    s.opacities[:] = rng.uniform(0.1, 0.95, n)
+    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
+    s.sh_rest[:] = rng.normal(0.0, 0.25, s.sh_rest.shape)
+    return s
+
+
+def two_objects(testdata):
+    """test64.ply (degree 3, its own RDF frame) and a rotated, scaled degree-1 blob
+    placed inside it, so the two interleave in depth."""
+    capture = read(testdata / "test64.ply")
+    world_a = np.eye(4)
+    world_a[:3, :3] = rotation((1, 0, 0), -90)  # RDF (y down, z forward) -> Blender z up
+    world_a[:3, 3] = (1.2, -0.4, 0.8)
+    centre = world_a[:3, :3] @ capture.positions.mean(0) + world_a[:3, 3]
+    other = blob(120, 1, seed=7, centre=(0, 0, 0), spread=0.08)
+    world_b = np.eye(4)
+    world_b[:3, :3] = rotation((0.3, 1.0, 0.5), 50) * np.array([1.0, 1.5, 0.7])  # non-uniform
+    world_b[:3, 3] = centre
+    return [RenderItem(capture, world_a), RenderItem(other, world_b)], centre
+
+
+def camera_for(centre, width=120, height=90):
+    eye = np.asarray(centre) + np.array([0.35, -0.9, 0.3])
+    return simple_camera(width, height, 45.0, look_at(eye, centre), near=0.05, far=50.0)
+
+
+def draw_offscreen(items, camera, displays=None, settings=None, renderer=None):
+    """Draw through the viewport path into an RGBA32F GPUOffScreen; top-down float32."""
+    import gpu
+
+    from addon.blender.viewport import DrawSettings, ViewportRenderer, draw_items
+    from addon.blender.viewport.matrices import projection_matrix
+
+    renderer = renderer or ViewportRenderer()
+    off = gpu.types.GPUOffScreen(camera.width, camera.height, format="RGBA32F")
+    try:
+        with off.bind():
+            fb = gpu.state.active_framebuffer_get()
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            draw_items(items, camera.world_to_camera, projection_matrix(camera),
+                       (camera.width, camera.height), settings or DrawSettings(), displays, renderer)
+            buf = fb.read_color(0, 0, camera.width, camera.height, 4, 0, "FLOAT")
+            buf.dimensions = camera.width * camera.height * 4
+            rgba = np.array(buf, np.float32).reshape(camera.height, camera.width, 4)[::-1]
+    finally:
+        off.free()
+    return rgba, renderer
+
+
+def psnr(a, b) -> float:
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)

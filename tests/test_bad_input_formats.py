@@ -96,6 +96,16 @@ def test_bad_rest_count_and_lists(tmp_path):
     path.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1\n"
                      b"property list uchar int vertex_indices\nend_header\n" + bytes(16))
     fails(path, "list")
+    path.write_bytes(ply_header(1, ("x", "y", "x")) + bytes(12))
+    fails(path, "repeats")
+
+
+def test_empty_face_element_with_list_is_fine(tmp_path, good_ply):
+    data = good_ply.read_bytes()
+    head, body = data.split(b"end_header\n", 1)
+    path = tmp_path / "face.ply"
+    path.write_bytes(head + b"element face 0\nproperty list uchar int vertex_indices\nend_header\n" + body)
+    assert read(path).count == 20
 
 
 def test_not_a_ply(tmp_path):

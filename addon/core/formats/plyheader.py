@@ -31,6 +31,7 @@ class Element:
     name: str
     count: int
     props: list = field(default_factory=list)  # [(name, numpy type code without byte order)]
+    lists: list = field(default_factory=list)  # list properties: allowed only when count is 0
 
     def dtype(self, order: str) -> np.dtype:
         return np.dtype([(name, order + code) for name, code in self.props])
@@ -90,8 +91,8 @@ def parse_header(path) -> Header:
             if not elements:
                 raise SplatFormatError(path, f"PLY header line {lineno}: property before any element")
             if words[1] == "list":
-                raise SplatFormatError(
-                    path, f"PLY list property {words[-1]!r} in element {elements[-1].name!r} is not supported")
+                elements[-1].lists.append(words[-1])
+                continue
             if words[1] not in TYPES or len(words) != 3:
                 raise SplatFormatError(path, f"PLY header line {lineno}: bad property {raw.strip()!r}")
             elements[-1].props.append((words[2], TYPES[words[1]]))
@@ -99,9 +100,24 @@ def parse_header(path) -> Header:
             raise SplatFormatError(path, f"PLY header line {lineno}: cannot parse {raw.strip()!r}")
     if encoding is None:
         raise SplatFormatError(path, "PLY header has no format line")
+    _check_names(path, elements)
     header = Header(encoding, elements, body_offset, size)
     _check_body_size(path, header)
     return header
+
+
+def _check_names(path, elements) -> None:
+    names = [e.name for e in elements]
+    if len(set(names)) != len(names):
+        raise SplatFormatError(path, f"PLY header repeats an element name: {names}")
+    for e in elements:
+        props = e.names()
+        if len(set(props)) != len(props):
+            raise SplatFormatError(path, f"PLY element {e.name!r} repeats a property name")
+        if e.lists and e.count:
+            # splat files never need lists; an empty 'face' element with one is harmless
+            raise SplatFormatError(path, f"PLY list property {e.lists[0]!r} in element {e.name!r} "
+                                         f"({e.count} rows) is not supported")
 
 
 def _check_body_size(path, header: Header) -> None:

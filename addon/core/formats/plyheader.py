@@ -54,15 +54,13 @@ class Header:
 def _read_header_text(path, size: int) -> tuple[str, int]:
     with open(path, "rb") as f:
         head = f.read(min(size, MAX_HEADER))
-    if not head.startswith(b"ply"):
+    if not (head.startswith(b"ply\n") or head.startswith(b"ply\r")):
         raise SplatFormatError(path, "not a PLY file (missing 'ply' magic)")
     for marker in (b"end_header\r\n", b"end_header\n", b"end_header\r"):
         end = head.find(marker)
         if end >= 0:
-            try:
-                return head[:end].decode("ascii"), end + len(marker)
-            except UnicodeDecodeError:
-                raise SplatFormatError(path, "PLY header is not ASCII text") from None
+            # comments written by some tools carry UTF-8; keywords and names are ASCII
+            return head[:end].decode("utf-8", errors="replace"), end + len(marker)
     raise SplatFormatError(path, "PLY header has no end_header (truncated or not a PLY)")
 
 

@@ -174,11 +174,15 @@ def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):
     truth = [read(p) for p in paths]
     blend = project / "scene.blend"
     bpy = bpy_empty
-    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    obj = seq_import(paths[0].parent)
+    obj = seq_import(paths[0].parent)  # unsaved .blend: an absolute path for now
     name = obj.name
-    assert obj.splatline.sequence.directory.startswith("//")  # relative to the .blend
+    assert obj.splatline.sequence.directory == str(paths[0].parent)
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    assert obj.splatline.sequence.directory == "//frames/"  # made relative by the save
+    # a copy saved elsewhere gets its own relative path; the open file keeps its own
+    (tmp_path / "elsewhere").mkdir()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "elsewhere" / "copy.blend"), copy=True)
+    assert obj.splatline.sequence.directory == "//frames/"
     frame_bytes = sum(p.stat().st_size for p in paths)
     one_frame = paths[0].stat().st_size
     # the .blend holds the first frame's PointCloud (Solid mode, Blender 5.3) and the
@@ -197,6 +201,8 @@ def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):
     obj = bpy.data.objects[name]
     for f in (1, 7, 12):
         assert_same(item_of(bpy, obj, f).splats, truth[f - 1])
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "elsewhere" / "copy.blend"))
+    assert bpy.data.objects[name].splatline.sequence.directory == "//../project/frames/"
 
 
 def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_import):

@@ -34,6 +34,38 @@ def _stored_directory(directory: str) -> str:
         return directory
 
 
+def remap_directories(new_blend_path: str) -> dict:
+    """Before a save to new_blend_path: re-express every sequence folder relative to it
+    (Blender's own relative remap covers images and libraries, not add-on paths).
+    Returns {object name: previous directory} so a save-as-copy can undo it."""
+    if not bpy.context.preferences.filepaths.use_relative_paths:
+        return {}
+    start = os.path.dirname(os.path.abspath(new_blend_path))
+    previous = {}
+    for obj in bpy.data.objects:
+        seq = getattr(getattr(obj, "splatline", None), "sequence", None)
+        if seq is None or not seq.enabled or obj.library is not None or not seq.directory:
+            continue
+        absolute = bpy.path.abspath(seq.directory)  # against the .blend's current location
+        try:
+            relative = "//" + os.path.relpath(absolute, start).replace(os.sep, "/")
+        except ValueError:  # another drive on Windows
+            continue
+        if not relative.endswith("/"):
+            relative += "/"
+        if relative != seq.directory:
+            previous[obj.name] = seq.directory
+            seq.directory = relative
+    return previous
+
+
+def restore_directories(previous: dict) -> None:
+    for name, directory in previous.items():
+        obj = bpy.data.objects.get(name)
+        if obj is not None:
+            obj.splatline.sequence.directory = directory
+
+
 def _sequence_name(pattern) -> str:
     name = pattern.prefix.rstrip("_-. ")
     return name or os.path.basename(os.path.normpath(pattern.directory)) or "Splat Sequence"

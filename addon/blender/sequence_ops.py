@@ -11,7 +11,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from ..core.errors import SplatFormatError
 from . import sequence_runtime
 from .sequence_io import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, bake_frames, export_evaluated,
-                          import_sequence)
+                          import_sequence, remap_directories, restore_directories)
 from .sequence_props import _LOOP_ITEMS
 
 
@@ -223,18 +223,50 @@ def _menu_export(self, context):
     self.layout.operator(SPLATLINE_OT_bake_sequence.bl_idname, text="Baked Splat Sequence (.ply)")
 
 
+class _SaveRemap:
+    """save_pre makes sequence folders relative to where the .blend is saved; save_post
+    puts them back when the save was a copy (the open file did not move)."""
+
+    def __init__(self):
+        self.previous = {}
+
+    @bpy.app.handlers.persistent
+    def pre(self, filepath, *_args):
+        self.previous = remap_directories(filepath) if filepath else {}
+
+    @bpy.app.handlers.persistent
+    def post(self, filepath, *_args):
+        if self.previous and os.path.abspath(bpy.data.filepath) != os.path.abspath(filepath):
+            restore_directories(self.previous)
+        self.previous = {}
+
+
+_save_remap = None
+
+
 _CLASSES = (IMPORT_SCENE_OT_splatline_sequence, EXPORT_SCENE_OT_splatline_evaluated,
             SPLATLINE_OT_bake_sequence, OBJECT_PT_splatline_sequence)
 
 
 def register():
+    global _save_remap
     for cls in _CLASSES:
         bpy.utils.register_class(cls)
+    _save_remap = _SaveRemap()
+    bpy.app.handlers.save_pre.append(_save_remap.pre)
+    bpy.app.handlers.save_post.append(_save_remap.post)
     bpy.types.TOPBAR_MT_file_import.append(_menu_import)
     bpy.types.TOPBAR_MT_file_export.append(_menu_export)
 
 
 def unregister():
+    global _save_remap
+    if _save_remap is not None:
+        for handlers, fn in ((bpy.app.handlers.save_pre, _save_remap.pre),
+                             (bpy.app.handlers.save_post, _save_remap.post)):
+            if fn in handlers:
+                handlers.remove(fn)
+        _save_remap = None
     bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
     for cls in reversed(_CLASSES):

@@ -54,11 +54,10 @@ def _unpack_rotation(packed: np.ndarray) -> np.ndarray:
     largest = np.sqrt(np.maximum(0.0, 1.0 - np.einsum("ij,ij->i", three, three))).astype(np.float32)
     which = (packed >> np.uint32(30)).astype(np.intp)
     wxyz = np.empty((n, 4), np.float32)
-    slot = np.arange(4)
-    for k in range(4):
-        rows = which == k
-        wxyz[rows, k] = largest[rows]
-        wxyz[np.ix_(rows, slot[slot != k])] = three[rows]
+    for j in range(4):  # slot j takes the largest, or the stored component j - (j > largest)
+        src = np.clip(j - (j > which), 0, 2)
+        stored = np.take_along_axis(three, src[:, None], axis=1)[:, 0]
+        wxyz[:, j] = np.where(which == j, largest, stored)
     return wxyz
 
 

@@ -24,6 +24,8 @@ uniform vec2 u_frame;            // width, height
 uniform vec2 u_near_far;
 uniform bool u_ortho;
 uniform vec3 u_ortho_dir;        // ortho: the camera's forward axis in the object's frame
+uniform vec3 u_depth_axis;       // depth = dot(u_depth_axis, p) + u_sort_offset - frame anchor
+uniform float u_sort_offset;
 uniform float u_splat_scale;
 uniform float u_opacity_scale;
 uniform int u_sh_degree;
@@ -98,8 +100,11 @@ void main()
     rec0[g] = vec4(centre, conic.xy);
     rec1[g] = vec4(conic.z, radius, depth, opacity);
     rec2[g] = vec4(rgb, 0.0);
-    depth_key_src[g] = depth;
-    uint bits = ordered_bits(depth);
+    // Sort on depth minus a per-frame anchor (offset summed in float64 on the CPU): a small
+    // object far from the camera keeps its depth differences, which depth itself rounds away.
+    float sort_depth = dot(u_depth_axis, p.xyz) + u_sort_offset;
+    depth_key_src[g] = sort_depth;
+    uint bits = ordered_bits(sort_depth);
     atomicMin(range_bits[0], bits);
     atomicMax(range_bits[1], bits);
     atomicAdd(range_bits[2], 1u);

@@ -12,7 +12,7 @@ from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
 from .depthpass import DepthPass
 from .sorting import RadixSorter, cpu_order
-from .uniforms import camera_uniforms, item_uniforms, set_uniform
+from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform
 from .upload import UploadCache
 
 MAX_TILE = 4096  # larger frames are drawn tile by tile (bounded GPU memory)
@@ -66,8 +66,9 @@ class FrameState:
         set_uniform(cs, "u_antialiased", bool(options.antialiased))
         set_uniform(cs, "u_opacity_aware", bool(options.opacity_aware_extent))
         base = 0
+        anchor = depth_origin(items[0], camera) if items else 0.0
         for item, obj in zip(items, objects):
-            for name, value in item_uniforms(item, camera).items():
+            for name, value in item_uniforms(item, camera, anchor).items():
                 set_uniform(cs, name, value)
             set_uniform(cs, "u_rest_count", obj.rest_coeffs)
             for part in obj.parts:
@@ -148,7 +149,8 @@ class FrameState:
             np.zeros(0, np.uint32)
 
     def last_depths(self) -> np.ndarray:
-        """View depth per global splat of the last frame (+inf where culled)."""
+        """Sort depth per global splat of the last frame: view depth minus the frame's
+        anchor (the first item's origin depth); +inf where culled."""
         _, _, n = self.last
         return np.frombuffer(self.arrays["depth"].read(size=4 * n), np.float32).copy() if n else \
             np.zeros(0, np.float32)

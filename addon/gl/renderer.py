@@ -50,7 +50,7 @@ class OffscreenRenderer:
         return self._worker.call(self._state.last_order)
 
     def last_depths(self):
-        """Per-splat view depths of the last frame, +inf where culled."""
+        """Per-splat sort depths of the last frame (view depth minus an anchor), +inf where culled."""
         return self._worker.call(self._state.last_depths)
 
     @property

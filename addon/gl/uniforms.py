@@ -46,9 +46,16 @@ def split_float(x: np.ndarray) -> tuple[tuple, tuple]:
     return tuple(float(v) for v in hi), tuple(float(v) for v in lo)
 
 
-def item_uniforms(item: RenderItem, camera: Camera) -> dict:
+def depth_origin(item: RenderItem, camera: Camera) -> float:
+    """View depth of the item's origin (float64): the sort anchor of a frame."""
+    return float(-(np.asarray(camera.world_to_camera, np.float64) @ np.asarray(item.world, np.float64))[2, 3])
+
+
+def item_uniforms(item: RenderItem, camera: Camera, anchor: float = 0.0) -> dict:
+    """anchor: a depth subtracted (in float64) from every sort depth of the frame."""
     world = np.asarray(item.world, np.float64)
-    cam_from_local = (np.asarray(camera.world_to_camera, np.float64) @ world)[:3, :3]
+    o2c = np.asarray(camera.world_to_camera, np.float64) @ world
+    cam_from_local = o2c[:3, :3]
     with np.errstate(all="ignore"):
         inv = np.linalg.pinv(world)
         eye = inv[:3, :3] @ camera.position + inv[:3, 3]
@@ -61,6 +68,8 @@ def item_uniforms(item: RenderItem, camera: Camera) -> dict:
         "u_eye_hi": hi,
         "u_eye_lo": lo,
         "u_ortho_dir": tuple(float(v) for v in fwd),
+        "u_depth_axis": tuple(float(v) for v in -o2c[2, :3]),
+        "u_sort_offset": float(-o2c[2, 3] - anchor),
         "u_splat_scale": float(item.splat_scale),
         "u_opacity_scale": float(item.opacity_scale),
         "u_sh_degree": int(item.effective_sh_degree),

@@ -11,19 +11,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.camera import Camera
+from ..core.colorspace import srgb_to_linear
 
 # Cycles writes this for pixels that never hit anything; compositors expect a finite value.
 BACKGROUND_DEPTH = 1e10
-
-
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    """The sRGB EOTF (IEC 61966-2-1), extended as a power curve above 1, in float64.
-
-    Blender's "Standard" view transform applies the exact inverse, so a colour
-    survives the round trip to an 8-bit PNG.
-    """
-    c = np.asarray(c, np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
 
 
 def to_scene_linear(rgba: np.ndarray) -> np.ndarray:

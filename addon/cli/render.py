@@ -1,9 +1,234 @@
-"""python -m addon render (placeholder until its owner fills it in)."""
+"""python -m addon render SCENE.blend --out DIR: render a .blend with the Splatline engine.
+
+Renders through Blender's own animation pipeline (what `blender -b -a` runs), so frame
+step, border, resolution percentage and every output format behave as in Blender.
+Progress and the time of each frame come from Blender's render handlers.
+
+Farm use: splitting a frame range across runs gives the same files as one run. For
+that the files must not carry the render date or render time (Blender stamps both
+into PNG/EXR metadata by default); this command turns those two fields off unless
+--keep-stamp is given.
+
+Ctrl+C (SIGINT) stops at the frame being rendered: every finished frame stays on disk
+and readable, the unfinished one is not written, and the command exits with 130.
+A second Ctrl+C stops at once.
+"""
+from __future__ import annotations
+
+import os
+import re
+import signal
+import statistics
+import time
+
+from . import UserError
+
+FORMATS = ("EXR", "PNG", "MP4")
+_BOOL = {"1": True, "true": True, "on": True, "yes": True,
+         "0": False, "false": False, "off": False, "no": False}
 
 
 def configure(parser):
-    pass
+    parser.add_argument("blend", metavar="SCENE.blend", help="the .blend to render")
+    parser.add_argument("--out", required=True, metavar="DIR", help="folder for the frames or the movie")
+    parser.add_argument("--frames", metavar="A-B", help="frame range (or one frame); default: the scene's")
+    parser.add_argument("--step", type=int, metavar="N", help="render every Nth frame; default: the scene's")
+    parser.add_argument("--format", type=str.upper, choices=FORMATS,
+                        help="EXR (multilayer, Combined + Depth), PNG (8-bit) or MP4 (H.264); "
+                             "default: the .blend's own output settings")
+    parser.add_argument("--half", action="store_true", help="EXR: half floats instead of full floats")
+    parser.add_argument("--resolution", metavar="WxH", help="output size in pixels (percentage set to 100)")
+    parser.add_argument("--engine-option", action="append", default=[], metavar="NAME=VALUE",
+                        help="a Splatline render setting, e.g. key_bits=16, gpu_sort=off, "
+                             "antialiased=on, renderer=REFERENCE (repeatable)")
+    parser.add_argument("--keep-stamp", action="store_true",
+                        help="keep the render date and time in the files' metadata (not reproducible)")
+
+
+def parse_frames(text: str) -> tuple[int, int]:
+    match = re.fullmatch(r"\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*)?", text or "")
+    if match is None:
+        raise UserError(f"--frames {text!r}: expected A-B or a single frame")
+    start = int(match.group(1))
+    end = int(match.group(2)) if match.group(2) is not None else start
+    if end < start:
+        raise UserError(f"--frames {text!r}: the range ends before it starts")
+    return start, end
+
+
+def parse_resolution(text: str) -> tuple[int, int]:
+    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
+    if match is None or int(match.group(1)) < 1 or int(match.group(2)) < 1:
+        raise UserError(f"--resolution {text!r}: expected WxH, e.g. 1920x1080")
+    return int(match.group(1)), int(match.group(2))
+
+
+def set_engine_option(settings, text: str) -> None:
+    """NAME=VALUE onto the RenderSettings group, typed by its RNA definition."""
+    name, sep, value = text.partition("=")
+    name, value = name.strip(), value.strip()
+    props = settings.bl_rna.properties
+    if not sep or name not in props or name == "rna_type":
+        known = ", ".join(p.identifier for p in props if p.identifier != "rna_type")
+        raise UserError(f"--engine-option {text!r}: expected NAME=VALUE with NAME one of {known}")
+    prop = props[name]
+    if prop.type == "BOOLEAN":
+        if value.lower() not in _BOOL:
+            raise UserError(f"--engine-option {name}: {value!r} is not on/off")
+        setattr(settings, name, _BOOL[value.lower()])
+    elif prop.type == "ENUM":
+        choices = {item.identifier.upper(): item.identifier for item in prop.enum_items}
+        if value.upper() not in choices:
+            raise UserError(f"--engine-option {name}: {value!r} is not one of {', '.join(choices.values())}")
+        setattr(settings, name, choices[value.upper()])
+    else:
+        try:
+            setattr(settings, name, int(value) if prop.type == "INT" else float(value))
+        except (TypeError, ValueError) as exc:
+            raise UserError(f"--engine-option {name}: {value!r}: {exc}") from None
+
+
+def configure_output(scene, fmt: str, out_dir: str, half: bool = False) -> None:
+    """Blender's output settings for one of FORMATS (media_type goes before file_format)."""
+    render, image = scene.render, scene.render.image_settings
+    render.filepath = os.path.join(os.path.abspath(out_dir), "frame_####")
+    render.use_file_extension = True
+    if fmt == "EXR":
+        image.media_type = "MULTI_LAYER_IMAGE"
+        image.file_format = "OPEN_EXR_MULTILAYER"
+        image.color_depth = "16" if half else "32"
+        image.exr_codec = "ZIP"
+        for layer in scene.view_layers:
+            layer.use_pass_z = True
+    elif fmt == "PNG":
+        image.media_type = "IMAGE"
+        image.file_format = "PNG"
+        image.color_mode = "RGBA" if render.film_transparent else "RGB"
+        image.color_depth = "8"
+    elif fmt == "MP4":
+        image.media_type = "VIDEO"
+        image.file_format = "FFMPEG"
+        image.color_mode = "RGB"
+        render.ffmpeg.format = "MPEG4"
+        render.ffmpeg.codec = "H264"
+
+
+def _check_video_size(scene) -> None:
+    r = scene.render
+    w, h = r.resolution_x * r.resolution_percentage // 100, r.resolution_y * r.resolution_percentage // 100
+    if w % 2 or h % 2:
+        raise UserError(f"MP4 (H.264) needs an even frame size, this one is {w}x{h}")
+
+
+class _Progress:
+    """Per-frame lines from Blender's render handlers (added for one render, then removed)."""
+
+    def __init__(self, bpy, total: int):
+        self.bpy, self.total, self.times, self._t0 = bpy, total, [], None
+        self._handlers = (("render_pre", self.pre), ("render_write", self.written))
+
+    def pre(self, scene, *_):
+        self._t0 = time.perf_counter()
+
+    def written(self, scene, *_):
+        seconds = time.perf_counter() - (self._t0 or time.perf_counter())
+        self.times.append(seconds)
+        frame = scene.frame_current
+        path = scene.render.frame_path(frame=frame)
+        print(f"frame {frame} ({len(self.times)}/{self.total})  {seconds:.2f} s  {path}", flush=True)
+
+    def __enter__(self):
+        for name, fn in self._handlers:
+            getattr(self.bpy.app.handlers, name).append(fn)
+        return self
+
+    def __exit__(self, *exc):
+        for name, fn in self._handlers:
+            handlers = getattr(self.bpy.app.handlers, name)
+            if fn in handlers:
+                handlers.remove(fn)
+
+
+class _StopOnSigint:
+    """First SIGINT: ask the engine to stop after saving nothing more; second: default."""
+
+    def __init__(self, engine):
+        self.engine, self._old = engine, None
+
+    def _handle(self, signum, frame):
+        self.engine.request_stop()
+        print("stopping: finished frames are kept (Ctrl+C again to quit now)", flush=True)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    def __enter__(self):
+        self.engine.clear_stop()
+        self._old = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def __exit__(self, *exc):
+        signal.signal(signal.SIGINT, self._old)
+
+
+def _prepare(bpy, args):
+    scene = bpy.context.scene
+    scene.render.engine = "SPLATLINE"
+    if args.frames:
+        scene.frame_start, scene.frame_end = parse_frames(args.frames)
+    if args.step is not None:
+        if args.step < 1:
+            raise UserError(f"--step {args.step}: must be at least 1")
+        scene.frame_step = args.step
+    if args.resolution:
+        scene.render.resolution_x, scene.render.resolution_y = parse_resolution(args.resolution)
+        scene.render.resolution_percentage = 100
+    for option in args.engine_option:
+        set_engine_option(scene.splatline.render, option)
+    if args.format:
+        configure_output(scene, args.format, args.out, args.half)
+    else:
+        scene.render.filepath = os.path.join(os.path.abspath(args.out), "frame_####")
+    if scene.render.image_settings.media_type == "VIDEO":
+        _check_video_size(scene)
+    if not args.keep_stamp:
+        scene.render.use_stamp_date = False
+        scene.render.use_stamp_render_time = False
+    if scene.camera is None:
+        raise UserError(f"{args.blend}: scene {scene.name!r} has no camera")
+    return scene
 
 
 def run(args) -> int:
-    raise SystemExit("render: not implemented yet")
+    blend = os.path.abspath(args.blend)
+    if not os.path.isfile(blend):
+        raise UserError(f"{args.blend}: no such .blend file")
+    os.makedirs(args.out, exist_ok=True)
+    from . import blender_session
+    try:
+        bpy = blender_session.start(blend)
+    except RuntimeError as exc:
+        raise UserError(f"{args.blend}: cannot open: {str(exc).strip()}") from None
+    from ..blender import engine
+    scene = _prepare(bpy, args)
+    total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))
+    print(f"rendering {total} frame(s) {scene.frame_start}-{scene.frame_end} of {args.blend} "
+          f"at {scene.render.resolution_x}x{scene.render.resolution_y} "
+          f"{scene.render.resolution_percentage}% to {args.out}", flush=True)
+    start = time.perf_counter()
+    with _Progress(bpy, total) as progress, _StopOnSigint(engine):
+        try:
+            bpy.ops.render.render(animation=True, scene=scene.name)
+        except RuntimeError as exc:
+            if not engine.stop_requested():
+                raise UserError(f"{args.blend}: {_one_line(exc)}") from None
+    if engine.stop_requested():
+        print(f"interrupted: {len(progress.times)} finished frame(s) kept in {args.out}", flush=True)
+        return 130
+    median = statistics.median(progress.times) if progress.times else 0.0
+    print(f"done: {len(progress.times)} frame(s) in {time.perf_counter() - start:.2f} s, "
+          f"median {median:.2f} s per frame", flush=True)
+    return 0
+
+
+def _one_line(exc) -> str:
+    text = " ".join(str(exc).split())
+    return text.removeprefix("Error: ") or type(exc).__name__

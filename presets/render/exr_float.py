@@ -1,0 +1,9 @@
+# EXR sequence: full float RGBA, single layer.
+import bpy
+scene = bpy.context.scene
+image = scene.render.image_settings
+image.media_type = 'IMAGE'
+image.file_format = 'OPEN_EXR'
+image.color_mode = 'RGBA'
+image.color_depth = '32'
+image.exr_codec = 'ZIP'

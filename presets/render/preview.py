@@ -1,0 +1,13 @@
+# Preview: half resolution, 16-bit sort keys, PNG; fast look-dev turnarounds.
+import bpy
+scene = bpy.context.scene
+scene.render.resolution_percentage = 50
+image = scene.render.image_settings
+image.media_type = 'IMAGE'
+image.file_format = 'PNG'
+image.color_mode = 'RGBA'
+image.color_depth = '8'
+settings = scene.splatline.render
+settings.key_bits = '16'
+settings.opacity_aware_extent = True
+settings.antialiased = False

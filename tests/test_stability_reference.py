@@ -2,14 +2,12 @@
 
 Every case checks that no pixel is NaN/Inf, alpha stays in [0, 1] and colours
 are >= 0 (`sane`). Where the case is well defined, the image is compared with
-an independent oracle written here the plain way (Sigma' = J W Sigma W^T J^T,
-det = ac - b^2) in exact rational arithmetic, pixels in np.longdouble, within
+an independent oracle (tests/reference_oracle.py: Sigma' = J W Sigma W^T J^T,
+det = ac - b^2 in exact rational arithmetic, pixels in long double), within
 TOL = 1e-6: the output is float32 (step 6e-8 below 1) and the float64 maths
 loses far less, even for the stiff covariances.
 """
 from __future__ import annotations
-
-from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -19,9 +17,9 @@ from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sh import C0
 from addon.core.splats import SplatSet
+from reference_oracle import splat_alpha
 
 TOL = 1e-6
-LD = np.longdouble
 
 
 def sane(out, cam):
@@ -50,57 +48,11 @@ def axis_camera(size=33, f=40.0, w2c=None, near=0.1) -> Camera:
                   near, 1e9, False)
 
 
-def _quat_matrix(q):
-    w, x, y, z = np.asarray(q, LD) / np.sqrt(np.sum(np.asarray(q, LD) ** 2))
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]], LD)
-
-
-def _exact(a):
-    return np.vectorize(lambda x: Fraction(float(x)) if np.isfinite(x) else Fraction(0),
-                        otypes=[object])(np.asarray(a, np.float64))
-
-
-def oracle_alpha(cam, pos, scale, quat=(1, 0, 0, 0), opacity=0.9, world=None):
-    """Alpha image of one splat, the plain way: Sigma' = J W R S S R^T W^T J^T and
-    det = ac - b^2 in exact rational arithmetic (fractions) from the float64
-    inputs, pixels in long double. No J clamp: the tests keep centres on screen."""
-    world = np.eye(4) if world is None else world
-    m = np.asarray(cam.world_to_camera, LD) @ np.asarray(world, LD)
-    flip = np.diag(np.array([1, -1, -1], LD))
-    lin = flip @ m[:3, :3]
-    t = lin @ np.asarray(pos, LD) + flip @ m[:3, 3]
-    rot = _quat_matrix(quat)
-    fx, fy = LD(cam.fx), LD(cam.fy)
-    if cam.ortho:
-        jac = np.array([[fx, 0, 0], [0, fy, 0]], LD)
-        u, v = cam.cx + fx * t[0], cam.cy + fy * t[1]
-    else:
-        z = t[2]
-        jac = np.array([[fx / z, 0, -fx * t[0] / z ** 2], [0, fy / z, -fy * t[1] / z ** 2]], LD)
-        u, v = cam.cx + fx * t[0] / z, cam.cy + fy * t[1] / z
-    mat = _exact(jac) @ _exact(lin) @ _exact(rot) @ np.diag(_exact(scale))
-    cov = mat @ mat.T
-    a, b, c = cov[0, 0] + Fraction(3, 10), cov[0, 1], cov[1, 1] + Fraction(3, 10)
-    det = a * c - b * b
-    mid = (a + c) / 2
-    lam = LD(mid) + np.sqrt(max(LD(0.1), LD(mid * mid - det)))
-    radius = min(3.0, np.sqrt(2 * np.log(255 * float(opacity)))) * np.sqrt(lam)
-    ca, cb, cc = LD(c / det), LD(-b / det), LD(a / det)
-    ys, xs = np.mgrid[0:cam.height, 0:cam.width].astype(LD) + LD(0.5)
-    dx, dy = xs - u, ys - v
-    m2 = ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy
-    alpha = np.minimum(LD(0.99), LD(float(opacity)) * np.exp(-m2 / 2))
-    inside = (np.abs(dx) <= radius) & (np.abs(dy) <= radius) & (alpha >= LD(1) / 255)
-    return np.where(inside, alpha, 0).astype(np.float64)
-
-
 def check_single(cam, pos, scale, quat=(1, 0, 0, 0), opacity=0.9, world=None):
     s = make(pos, scale, quat, opacity)
     out = render([RenderItem(s, world=np.eye(4) if world is None else world)], cam, RenderOptions())
     sane(out, cam)
-    expect = oracle_alpha(cam, s.positions[0], s.scales[0], s.rotations[0], s.opacities[0], world)
+    expect, _ = splat_alpha(cam, s.positions[0], s.scales[0], s.rotations[0], s.opacities[0], world)
     np.testing.assert_allclose(out.rgba[..., 3], expect, atol=TOL)
     return out
 

@@ -110,3 +110,51 @@ def test_bake_errors_leave_no_files(bpy_empty, tmp_path):
     with pytest.raises(RuntimeError, match="not a visible splat object"):
         bake(bpy, src, tmp_path / "hidden", 1, 2)
     assert not any((tmp_path / "hidden").glob("*.ply"))
+
+
+def _keyed_look(obj):
+    look = obj.splatline.look
+    for frame, (size, opacity, exposure, hue) in ((1, (1.0, 1.0, 0.0, 0.0)), (3, (1.6, 0.4, 0.7, 0.9))):
+        look.size, look.opacity, look.exposure, look.hue = size, opacity, exposure, hue
+        for name in ("size", "opacity", "exposure", "hue"):
+            look.keyframe_insert(name, frame=frame)
+    look.tint, look.saturation, look.max_sh_degree = (0.9, 1.0, 0.7), 0.6, 1
+
+
+def test_bake_folds_the_look_and_renders_the_same(bpy_empty, tmp_path):
+    """Keyframed look (size, opacity, tint, exposure, saturation, hue, SH cap) is baked into
+    the data: the re-imported sequence, with no look of its own, renders like the source."""
+    from addon.blender.sequence_io import import_sequence
+    from addon.core import reference
+    from addon.core.bake import baked_splats
+    from addon.core.camera import look_at, simple_camera
+
+    bpy = bpy_empty
+    src, _ = animated_source(bpy, tmp_path)
+    _keyed_look(src)
+    sources = {f: item_of(bpy, src, f) for f in (1, 2, 3)}
+    assert sources[3].splat_scale == pytest.approx(1.6) and sources[1].splat_scale == 1.0
+    assert bake(bpy, src, tmp_path / "look", 1, 3) == {"FINISHED"}
+    seq = import_sequence(bpy.context, tmp_path / "look")
+    camera = simple_camera(40, 40, 70.0, look_at((0.0, -14.0, 2.0), (0.0, 0.0, 0.0)))
+    for f in (1, 2, 3):
+        got, source = item_of(bpy, seq, f), sources[f]
+        want = baked_splats(source)
+        assert got.splats.sh_degree == 1
+        for name in ("positions", "rotations", "sh_dc", "sh_rest"):
+            np.testing.assert_array_equal(getattr(got.splats, name), getattr(want, name), err_msg=name)
+        # PLY keeps log(scale) in float32: a scale not read from a PLY (here multiplied by
+        # the look's size) comes back within |ln s| + 1 float32 steps of relative error
+        bound = (np.abs(np.log(want.scales.astype(np.float64))) + 1.0) * 2.0 ** -24 * want.scales
+        assert np.all(np.abs(got.splats.scales - want.scales) <= bound)
+        # likewise logit(opacity) in float32: one logit step times d(sigmoid) = o(1 - o),
+        # plus the final float32 rounding
+        o = want.opacities.astype(np.float64)
+        bound = o * (1 - o) * np.abs(np.log(o / (1 - o))) * 2.0 ** -23 + np.spacing(want.opacities)
+        assert np.all(np.abs(got.splats.opacities - want.opacities) <= bound)
+        a = reference.render([source], camera).rgba
+        b = reference.render([got], camera).rgba
+        assert a[..., 3].max() > 0.5  # the capture is in view
+        # dc'/rest' are stored in float32 (relative 6e-8, |dc'| up to ~10, 4 bands summed);
+        # scale products round once in float32: well under 1e-4 of a unit colour
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-4)

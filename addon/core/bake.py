@@ -1,6 +1,8 @@
 """Fold a RenderItem's per-object look into plain splat data, for export and bake.
 
-What is folded (exactly, before the renderer's clamps):
+The item's splats already carry the effect stack and the crop (as per-splat opacity), so
+they are written as they are. On top of them, what is folded (exactly, before the
+renderer's clamps):
 - splat_scale    -> scales * splat_scale
 - opacity_scale  -> opacities * opacity_scale, clipped to [0, 1] (a file cannot hold an
                     opacity above 1; the renderer's alpha cap 0.99 makes the difference

@@ -166,6 +166,15 @@ def test_missing_frame_holds_previous_and_is_reported_once(bpy_empty, frames, se
     paths[3].write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nend_header\n")
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[1])
     assert "frame_0004.ply" in sequence_runtime.report_for(obj)
+    # no earlier frame to hold: the next available one shows
+    os.remove(paths[0])
+    assert_same(item_of(bpy_empty, obj, 1).splats, truth[1])
+    assert "holding frame 1" in sequence_runtime.report_for(obj)
+    for path in paths:  # nothing left: an empty set, and the report says so
+        if path.exists():
+            os.remove(path)
+    assert item_of(bpy_empty, obj, 2).splats.count == 0
+    assert "nothing to show" in sequence_runtime.report_for(obj)
 
 
 def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):

@@ -8,7 +8,7 @@ import pytest
 
 from addon.core import formats
 from addon.core.axes import matrix_for
-from addon.core.camera import look_at, simple_camera
+from addon.core.camera import camera_from_params, look_at, simple_camera
 from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
 from reference_oracle import render_oracle
@@ -56,4 +56,18 @@ def test_guitar_subset(testdata):
     out = render(items, cam, RenderOptions())
     expect = render_oracle(items, cam)
     assert (expect[..., 3] > 0.05).sum() > 200
+    np.testing.assert_allclose(out.rgba, expect.astype(np.float64), atol=TOL)
+
+
+def test_guitar_subset_shifted_non_square_camera(testdata):
+    # Off-centre frame and wide pixels: J's clamp must follow the shifted frame.
+    sp = formats.read(testdata / "guitar.ply")
+    sp = sp.subset(np.arange(7, sp.count, 240))
+    items = [RenderItem(sp, world=_placed(sp, 120, (0.0, 0.0, 0.0)))]
+    ref = _camera_for(items, 40, distance=0.9)
+    cam = camera_from_params(ref.world_to_camera, resolution_x=44, resolution_y=36, lens=20,
+                             shift_x=0.25, shift_y=-0.3, pixel_aspect_x=1.5)
+    out = render(items, cam, RenderOptions())
+    expect = render_oracle(items, cam)
+    assert (expect[..., 3] > 0.05).sum() > 100
     np.testing.assert_allclose(out.rgba, expect.astype(np.float64), atol=TOL)

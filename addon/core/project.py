@@ -11,7 +11,7 @@ Conventions and the choices the renderers must agree on:
 - J's clamp: INRIA clamps x/z and y/z to +-1.3 tan(fov/2). Generalised to
   shifted cameras as the same margin around the actual frame: u and v of the
   point used in J are clamped to [-0.15 W, 1.15 W] and [-0.15 H, 1.15 H]
-  pixels. For an unshifted camera this is exactly INRIA's clamp.
+  pixels (j_clamp_bounds). For an unshifted camera this is exactly INRIA's.
 - Culled (valid = False): centre depth <= near or > far, opacity < 1/255 (no
   pixel could reach the 1/255 cut), zero/NaN quaternion, det <= 0, and any
   non-finite value in the inputs or results.
@@ -100,6 +100,19 @@ def local_view_dirs(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> 
         return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
+def j_clamp_bounds(camera: Camera) -> tuple[float, float, float, float]:
+    """(lo_x, hi_x, lo_y, hi_y): where x/depth and y/depth (Blender camera axes,
+    y up) are clamped before building J. The frame plus a margin of 15 % of its
+    size beyond each edge; for an unshifted camera this is INRIA's
+    +-1.3 tan(fov/2), and it follows the frame when the lens is shifted."""
+    mx, my = J_CLAMP_MARGIN * camera.width, J_CLAMP_MARGIN * camera.height
+    lo_x = (-mx - camera.cx) / camera.fx
+    hi_x = (camera.width + mx - camera.cx) / camera.fx
+    lo_y = (camera.cy - camera.height - my) / camera.fy  # v = cy - fy * y/depth
+    hi_y = (camera.cy + my) / camera.fy
+    return lo_x, hi_x, lo_y, hi_y
+
+
 def _jacobian(t: np.ndarray, camera: Camera) -> np.ndarray:
     """(N, 2, 3) d(u, v)/d(x', y', z') at camera-space centres t (INRIA axes)."""
     n = t.shape[0]
@@ -108,11 +121,9 @@ def _jacobian(t: np.ndarray, camera: Camera) -> np.ndarray:
         j[:, 0, 0], j[:, 1, 1] = camera.fx, camera.fy
         return j
     z = t[:, 2]
-    mx, my = J_CLAMP_MARGIN * camera.width, J_CLAMP_MARGIN * camera.height
-    lo_x, hi_x = (-mx - camera.cx) / camera.fx, (camera.width + mx - camera.cx) / camera.fx
-    lo_y, hi_y = (-my - camera.cy) / camera.fy, (camera.height + my - camera.cy) / camera.fy
+    lo_x, hi_x, lo_y, hi_y = j_clamp_bounds(camera)
     tx = np.clip(t[:, 0] / z, lo_x, hi_x)
-    ty = np.clip(t[:, 1] / z, lo_y, hi_y)
+    ty = -np.clip(-t[:, 1] / z, lo_y, hi_y)  # t is y-down; the bounds are y-up
     j[:, 0, 0] = camera.fx / z
     j[:, 0, 2] = -camera.fx * tx / z
     j[:, 1, 1] = camera.fy / z

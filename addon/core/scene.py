@@ -21,6 +21,8 @@ class RenderItem:
     color_matrix   (3, 4) affine applied to the SH colour (after +0.5, before the clamp
                    at 0): tint, exposure, saturation and hue as one linear map
     key            identity for caches: (object name, geometry version); None = no caching
+    positions_key  equal non-None keys mean bitwise-equal positions (a renderer may keep its
+                   depth sort); None = unknown. Colour/opacity-only changes keep it.
     """
 
     splats: SplatSet
@@ -30,6 +32,7 @@ class RenderItem:
     sh_degree: int = 3
     color_matrix: np.ndarray = field(default_factory=lambda: IDENTITY_COLOR.copy())
     key: tuple | None = None
+    positions_key: tuple | None = None
 
     @property
     def effective_sh_degree(self) -> int:

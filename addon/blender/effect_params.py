@@ -1,0 +1,133 @@
+"""Blender effect items -> core effect parameters, at one frame of one depsgraph.
+
+Gizmo frames: an Empty's matrix relative to the splat object; without one, world-aligned
+axes at the object's origin (so a plane's 'height' is world Z and units are world units).
+Morph targets are the target object's base splats mapped into the source object's space.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import effects as fx
+from ..core.effects.morph import pair
+from ..core.splats import SplatSet
+from .effect_props import FIELDS
+
+POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
+
+
+def evaluated(obj, depsgraph):
+    """The depsgraph's copy of obj when it has one (hidden objects keep their original)."""
+    if obj is None:
+        return None
+    try:
+        return obj.original.evaluated_get(depsgraph)
+    except (RuntimeError, ReferenceError):
+        return obj
+
+
+def gizmo_frame(effect, world: np.ndarray, depsgraph) -> np.ndarray:
+    if effect.gizmo is not None:
+        target = np.array(evaluated(effect.gizmo, depsgraph).matrix_world, np.float64)
+    else:
+        target = np.eye(4)
+        target[:3, 3] = world[:3, 3]
+    return np.linalg.solve(world, target)
+
+
+def _stops(effect):
+    stops = [(0.0, tuple(effect.color_a)), (1.0, tuple(effect.color_b))]
+    if effect.use_color_mid:
+        stops.insert(1, (float(effect.mid_position), tuple(effect.color_mid)))
+    return tuple(stops)
+
+
+def build(effect, frame: np.ndarray, fps: float, morph_target=None):
+    """Core params for one enabled effect item (morph_target: (SplatSet, Pairing) or None)."""
+    common = dict(enabled=bool(effect.enabled), amount=float(effect.amount), frame=frame)
+    kind = effect.type
+    if kind == "REVEAL":
+        return fx.Reveal(**common, shape=effect.reveal_shape, progress=effect.progress,
+                         width=effect.edge_width, invert=effect.invert, shrink=effect.shrink,
+                         glow_color=tuple(effect.glow_color), glow_strength=effect.glow_strength,
+                         frequency=effect.frequency, seed=effect.seed)
+    if kind == "DISPLACE":
+        return fx.Displace(**common, amplitude=effect.amplitude, frequency=effect.frequency,
+                           speed=effect.speed, seed=effect.seed)
+    if kind == "EXPLODE":
+        return fx.Explode(**common, mode=effect.explode_mode, strength=effect.strength,
+                          spread=effect.spread, spin=effect.spin, gravity=effect.gravity,
+                          start=effect.start_frame / fps, fade=effect.fade, seed=effect.seed)
+    if kind == "TWIST":
+        return fx.Twist(**common, twist=effect.twist, swirl=effect.swirl, radius=effect.swirl_radius)
+    if kind == "GRADE":
+        return fx.Grade(**common, field=effect.grade_field, stops=_stops(effect),
+                        low=effect.range_low, high=effect.range_high, mode=effect.grade_mode,
+                        frequency=effect.frequency, seed=effect.seed)
+    if kind == "MORPH":
+        target, pairing = morph_target if morph_target is not None else (None, None)
+        return fx.Morph(**common, target=target, pairing=pairing)
+    raise ValueError(f"unknown effect type {kind!r}")
+
+
+def signature(effect, frame: np.ndarray, extra=()) -> tuple:
+    """Everything an effect's output depends on besides the input splats and time."""
+    values = [effect.type, bool(effect.enabled), float(effect.amount), frame.tobytes()]
+    for name in FIELDS[effect.type]:
+        value = getattr(effect, name)
+        values.append(tuple(value) if hasattr(value, "__len__") and not isinstance(value, str)
+                      else (value.name_full if hasattr(value, "name_full") else value))
+    return tuple(values) + tuple(extra)
+
+
+def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
+    """Splats of another object expressed in this object's space (relative: 4x4 this<-that).
+
+    The linear part is split as R * s with s the cube root of |det| (exact for rotation and
+    uniform scale; a non-uniform relative scale is approximated by its mean)."""
+    linear = relative[:3, :3]
+    s = abs(np.linalg.det(linear)) ** (1.0 / 3.0)
+    if s == 0.0:
+        return splats
+    rot = linear / s
+    u, _, vt = np.linalg.svd(rot)
+    rot = u @ vt
+    positions = (splats.positions.astype(np.float64) @ linear.T + relative[:3, 3]).astype(np.float32)
+    q = _quat_from_matrix(rot).astype(np.float32)
+    rotations = fx.common.quat_multiply(np.broadcast_to(q, (splats.count, 4)), splats.rotations)
+    return SplatSet(positions, splats.scales * np.float32(s), rotations, splats.opacities,
+                    splats.sh_dc, splats.sh_rest, splats.axes)
+
+
+def _quat_from_matrix(m: np.ndarray) -> np.ndarray:
+    w = np.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
+    x = np.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0
+    y = np.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0
+    z = np.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0
+    x = np.copysign(x, m[2, 1] - m[1, 2])
+    y = np.copysign(y, m[0, 2] - m[2, 0])
+    z = np.copysign(z, m[1, 0] - m[0, 1])
+    q = np.array([w, x, y, z])
+    return q / np.linalg.norm(q)
+
+
+class MorphCache:
+    """Mapped targets and pairings, keyed by the data they came from (a pure cache)."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self.entries: dict = {}
+
+    def target(self, source: SplatSet, source_key, target: SplatSet, target_key, relative):
+        key = (source_key, source.count, target_key, relative.round(9).tobytes())
+        hit = self.entries.get(key)
+        if hit is None:
+            mapped = map_into(target, relative)
+            hit = (mapped, pair(source.positions, mapped.positions))
+            self.entries[key] = hit
+            while len(self.entries) > self.size:
+                self.entries.pop(next(iter(self.entries)))
+        return hit
+
+    def clear(self):
+        self.entries.clear()

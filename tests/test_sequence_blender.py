@@ -230,6 +230,8 @@ def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_impo
     seq.cache_budget_mb = 0  # only the current frame may stay
     item_of(bpy_empty, obj, 3)
     assert rt.read_ahead.wait_idle(30)
+    # earlier tests' objects went with their files (load_post unpinned them): only the
+    # current frame of this object is left
     assert [k[1] for k in rt.cache.keys()] == [2] and rt.cache.nbytes == frame_bytes
     assert rt.read_ahead.running
     sequence_ops.unregister()

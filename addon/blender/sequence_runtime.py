@@ -112,6 +112,13 @@ class SequenceRuntime:
         if jobs:
             self.read_ahead.request(jobs)
 
+    def forget_objects(self) -> None:
+        """A new file: no object's current frame needs keeping any more (frames stay cached
+        within the budget, as they are keyed by file)."""
+        self.cache.unpin_all()
+        self.reports.clear()
+        self._reported.clear()
+
     def shutdown(self) -> None:
         self.read_ahead.stop()
         self.cache.clear()
@@ -139,6 +146,11 @@ def shutdown() -> None:
     if _runtime is not None:
         _runtime.shutdown()
         _runtime = None
+
+
+def forget_objects() -> None:
+    if _runtime is not None:
+        _runtime.forget_objects()
 
 
 def resolved_directory(obj, settings) -> str:

@@ -178,6 +178,11 @@ class FrameCache:
         with self._lock:
             self._pinned.pop(owner, None)
 
+    def unpin_all(self) -> None:
+        with self._lock:
+            self._pinned.clear()
+            self._evict()
+
     def set_budget(self, budget_bytes: int) -> None:
         with self._lock:
             self.budget = int(budget_bytes)

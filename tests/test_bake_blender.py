@@ -182,3 +182,14 @@ def test_sequence_with_an_effect_bakes_and_replays(bpy_empty, tmp_path):
         got = item_of(bpy, baked, f).splats
         for name in ("positions", "rotations", "sh_dc", "sh_rest"):
             np.testing.assert_array_equal(getattr(got, name), getattr(evaluated[f], name), err_msg=name)
+
+
+def test_export_operator_writes_ply_or_splat(bpy_empty, tmp_path):
+    bpy = bpy_empty
+    src, _ = animated_source(bpy, tmp_path)
+    want = item_of(bpy, src, 4).splats
+    bpy.context.view_layer.objects.active = src
+    assert bpy.ops.export_scene.splatline_evaluated(filepath=str(tmp_path / "e.splat")) == {"FINISHED"}
+    assert bpy.ops.export_scene.splatline_evaluated(filepath=str(tmp_path / "e")) == {"FINISHED"}
+    np.testing.assert_array_equal(read(tmp_path / "e.ply").positions, want.positions)
+    assert read(tmp_path / "e.splat").count == want.count

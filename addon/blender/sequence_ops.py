@@ -61,6 +61,7 @@ class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
     bl_options = {"REGISTER"}
 
     filename_ext = ".ply"
+    check_extension = False  # keep a typed .splat; execute() adds .ply to anything else
     filter_glob: StringProperty(default="*.ply;*.splat", options={"HIDDEN"})
 
     @classmethod

@@ -93,10 +93,11 @@ class SequenceRuntime:
         held = "nothing to show" if shown is None else f"holding frame {shown}"
         message = f"{os.path.basename(path)}: {reason}; {held}"
         self.reports[owner] = message
-        for item in problems:
-            if item not in self._reported:  # once per file and reason, not once per redraw
-                self._reported.add(item)
-                log.warning("Splatline sequence %r: %s: %s", owner, item[0], item[1])
+        # once per file and reason, not once per redraw; only the wanted frame's problem
+        # (a whole missing folder would otherwise log every file it searched)
+        if problems[0] not in self._reported:
+            self._reported.add(problems[0])
+            log.warning("Splatline sequence %r: %s: %s; %s", owner, path, reason, held)
 
     def _schedule(self, pattern, time, mapping, count, current: SplatSet) -> None:
         if count <= 0:

@@ -255,3 +255,22 @@ def test_import_operator_from_folder_or_file(bpy_empty, tmp_path):
     with pytest.raises(RuntimeError, match="no numbered splat files"):
         bpy.ops.import_scene.splatline_sequence(directory=str(tmp_path))
     assert len(bpy.data.objects) == 2 and len(bpy.data.pointclouds) == 2
+
+
+def test_splat_format_frames_and_subframes(bpy_empty, tmp_path, seq_import):
+    """Any readable format works as frames; subframes (motion blur) map through speed."""
+    (tmp_path / "sp").mkdir()
+    truth = []
+    for i in range(6):
+        path = tmp_path / "sp" / f"cap{i}.splat"
+        write(path, random_splats(30, degree=0, seed=i))
+        truth.append(read(path))
+    obj = seq_import(tmp_path / "sp", align="SCENE_START")
+    obj.splatline.sequence.speed = 2.0
+    scene = bpy_empty.context.scene
+    from addon.blender.evaluate import collect_items
+
+    for frame, subframe, want in ((1, 0.0, 0), (1, 0.5, 1), (2, 0.25, 2), (2, 0.5, 3), (3, 0.0, 4)):
+        scene.frame_set(frame, subframe=subframe)
+        (item,) = collect_items(bpy_empty.context.evaluated_depsgraph_get())
+        np.testing.assert_array_equal(item.splats.positions, truth[want].positions)

@@ -13,7 +13,8 @@ _MODULES = (
     "viewport",       # SpaceView3D draw handler
     "engine",         # the Splatline RenderEngine
     "panels",         # Object / Render properties panels, N sidebar
-    "presets",        # preset menus and operators
+    "presets",        # render-output preset menu and operators
+    "effect_presets", # effect preset menu (appended to the effect stack panel)
 )
 
 

@@ -64,6 +64,21 @@ def _get(attributes, name, width, count) -> np.ndarray:
     return out.reshape(count, width) if width > 1 else out
 
 
+def per_coefficient(rest: np.ndarray, block: int = 2048) -> np.ndarray:
+    """(N, K, 3) higher SH -> (K, N, 3) with each rest[:, k] contiguous, as foreach_set needs.
+
+    Zero-copy when the reader already stores coefficient planes. Otherwise a blocked
+    transpose: K strided gathers over the whole array would pull every cache line of it
+    K times (measured 0.5 s for 1M splats, degree 3, against 0.15 s blocked)."""
+    planes = rest.transpose(1, 0, 2)
+    if planes.flags.c_contiguous and planes.dtype == np.float32:
+        return planes
+    out = np.empty(planes.shape, np.float32)
+    for i in range(0, rest.shape[0], block):
+        np.copyto(out[:, i:i + block], rest[i:i + block].transpose(1, 0, 2), casting="unsafe")
+    return out
+
+
 def write_attributes(attributes, splats: SplatSet) -> None:
     """Every splat attribute except position, on a geometry with splats.count points.
     sh attributes beyond the set's degree are removed, so a lower degree leaves none behind."""
@@ -73,11 +88,10 @@ def write_attributes(attributes, splats: SplatSet) -> None:
     base[:, :3] = splats.sh_dc
     base[:, 3] = splats.opacities
     _set(attributes, BASE, _FLOAT4_TYPE, base)
-    rest = splats.sh_rest
-    scratch = np.empty((splats.count, 3), np.float32) if rest.shape[1] else None
-    for k in range(rest.shape[1]):
-        _set(attributes, sh_name(k), "FLOAT_VECTOR", rest[:, k], scratch)
-    k = rest.shape[1]
+    rest = per_coefficient(splats.sh_rest)
+    for k in range(rest.shape[0]):
+        _set(attributes, sh_name(k), "FLOAT_VECTOR", rest[k])
+    k = rest.shape[0]
     while sh_name(k) in attributes:
         attributes.remove(attributes[sh_name(k)])
         k += 1
@@ -182,3 +196,11 @@ def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
 def _largest_complete(k: int) -> int:
     """Largest full-degree coefficient count <= k (a partial band is ignored)."""
     return max(c for c in (0, 3, 8, 15) if c <= k)
+
+
+def read_positions(pointcloud) -> np.ndarray:
+    """(N, 3) float32 object-space centres alone (cheap next to a full SplatSet read)."""
+    n = len(pointcloud.points)
+    if n == 0:
+        return np.zeros((0, 3), np.float32)
+    return _get(pointcloud.attributes, "position", 3, n)

@@ -1,0 +1,142 @@
+"""Effect presets: each one, applied by its operator at a frame, creates the keyframes its file
+describes (frames relative to that frame, values resolved against the object's bounds), and
+those keys change the evaluated splats. Saving a stack as a preset and re-applying it
+reproduces the keys; bad presets fail before changing anything."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import bpy  # noqa: F401  (puts bpy_extras on the path)
+from bpy_extras import anim_utils
+
+from addon.blender import effect_presets, presets
+from addon.blender.evaluate import collect_items
+from addon.blender.pointcloud import new_pointcloud_object
+from addon.core import effect_presets as core
+from addon.core import procedural
+
+FRAME = 10
+BUNDLED = ("dissolve_out_noise", "explode", "fade_in", "glitch_displace", "morph", "sweep_reveal")
+
+
+def _keys(obj) -> dict:
+    """{(data_path, index): [(frame, value), ...]} of every F-curve on obj."""
+    anim = obj.animation_data
+    if anim is None or anim.action is None:
+        return {}
+    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
+    return {(c.data_path, c.array_index): [tuple(p.co) for p in c.keyframe_points]
+            for c in bag.fcurves}
+
+
+def _scene(bpy):
+    knot = new_pointcloud_object("knot", procedural.torus_knot(3000, degree=1))
+    planet = new_pointcloud_object("planet", procedural.planet(2500, degree=1))
+    bpy.context.scene.frame_set(FRAME)
+    return knot, planet
+
+
+def _apply(bpy, obj, name, target=None):
+    selected = [obj] + ([target] if target else [])
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=selected):
+        return bpy.ops.splatline.effect_preset_apply(preset=name)
+
+
+def _item(bpy, obj, frame):
+    bpy.context.scene.frame_set(int(frame))
+    items = collect_items(bpy.context.evaluated_depsgraph_get())
+    return next(i for i in items if i.key[0] == obj.name)
+
+
+def test_bundled_presets_listed(bpy_empty):
+    assert tuple(sorted(presets.list_presets("effects", ".json"))) == BUNDLED
+
+
+@pytest.mark.parametrize("name", BUNDLED)
+def test_preset_creates_its_keyframes(bpy_empty, name):
+    bpy = bpy_empty
+    knot, planet = _scene(bpy)
+    preset = core.load(presets.find_preset(name, "effects", ".json"))
+    context = core.bounds_context(effect_presets.read_positions(knot.data), FRAME)
+    assert _apply(bpy, knot, name, planet if name == "morph" else None) == {"FINISHED"}
+    keys = _keys(knot)
+    blocks = ([("splatline.look", preset.look)] if preset.look else []) + [
+        (f"splatline.effects[{i}]", b) for i, b in enumerate(preset.effects)]
+    assert len(knot.splatline.effects) == len(preset.effects)
+    for path, block in blocks:
+        for prop, points in block.keys.items():
+            got = keys[(f"{path}.{prop}", 0)]
+            assert [f for f, _ in got] == [FRAME + off for off, _ in points]
+            want = [core.resolve(v, context) for _, v in points]
+            np.testing.assert_allclose([v for _, v in got], want, rtol=1e-6, atol=1e-6)
+    # Exactly the described curves, nothing else keyed.
+    described = {f"{p}.{prop}" for p, b in blocks for prop in b.keys}
+    assert {path for path, _ in keys} == described
+
+
+@pytest.mark.parametrize("name", BUNDLED)
+def test_preset_keys_change_the_evaluated_splats(bpy_empty, name):
+    bpy = bpy_empty
+    knot, planet = _scene(bpy)
+    preset = core.load(presets.find_preset(name, "effects", ".json"))
+    block = (preset.effects or [preset.look])[0]
+    offsets = sorted({off for points in block.keys.values() for off, _ in points})
+    before = _item(bpy, knot, FRAME + offsets[-1])
+    bpy.context.scene.frame_set(FRAME)
+    _apply(bpy, knot, name, planet if name == "morph" else None)
+    frames = [FRAME + off for off in offsets]
+    items = [_item(bpy, knot, f) for f in frames]
+    changed = [_differs(a, b) for a, b in zip(items, items[1:])]
+    assert any(changed), f"{name}: keys at {frames} change nothing"
+    assert any(_differs(item, before) for item in items), f"{name}: same as without the preset"
+
+
+def _differs(a, b) -> bool:
+    sa, sb = a.splats, b.splats
+    if sa.count != sb.count or a.opacity_scale != b.opacity_scale or a.splat_scale != b.splat_scale:
+        return True
+    return any(not np.array_equal(x, y) for x, y in
+               ((sa.positions, sb.positions), (sa.opacities, sb.opacities), (sa.scales, sb.scales),
+                (sa.sh_dc, sb.sh_dc)))
+
+
+def test_morph_without_target_changes_nothing(bpy_empty):
+    bpy = bpy_empty
+    knot, _ = _scene(bpy)
+    with pytest.raises(RuntimeError, match="target"):
+        _apply(bpy, knot, "morph")
+    assert len(knot.splatline.effects) == 0 and not _keys(knot)
+
+
+def test_saved_preset_reapplies_same_keys(bpy_empty, tmp_path, monkeypatch):
+    bpy = bpy_empty
+    knot, planet = _scene(bpy)
+    _apply(bpy, knot, "glitch_displace")
+    _apply(bpy, knot, "sweep_reveal")
+    data = effect_presets.capture_preset(knot, FRAME, "Mine")
+    path = tmp_path / "mine.json"
+    path.write_text(json.dumps(data))
+    effect_presets.apply_preset(planet, core.load(path), FRAME + 5)
+    theirs = {(p, i): [(f - 5, v) for f, v in pts] for (p, i), pts in _keys(planet).items()}
+    mine = _keys(knot)
+    assert theirs.keys() == mine.keys()
+    for key in mine:
+        np.testing.assert_allclose(theirs[key], mine[key], rtol=1e-6)
+    assert [e.type for e in planet.splatline.effects] == [e.type for e in knot.splatline.effects]
+
+
+def test_core_rejects_bad_presets(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"effects": [{"type": "REVEAL", "keys": {"progress": [[0, "size + __import__('os')"]]}}]}')
+    preset = core.load(bad)
+    with pytest.raises(ValueError, match="unsupported expression"):
+        core.resolve(preset.effects[0].keys["progress"][0][1], {"size": 1.0})
+    bad.write_text('{"effects": [{"type": "REVEAL", "interpolation": "SPLINE"}]}')
+    with pytest.raises(core.PresetError, match="bad.json"):
+        core.load(bad)
+    bad.write_text("{")
+    with pytest.raises(core.PresetError, match="bad.json"):
+        core.load(bad)
+    assert core.resolve("zmax + 0.1 * size", {"zmax": 2.0, "size": 10.0}) == pytest.approx(3.0)

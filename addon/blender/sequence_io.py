@@ -101,13 +101,16 @@ def evaluated_item(obj, depsgraph):
     for item in collect_items(depsgraph):
         if item.key is not None and item.key[0] == obj.name:
             return item
-    raise SplatFormatError(None, f"object {obj.name!r} is not a visible splat object in the view layer")
+    raise LookupError(f"object {obj.name!r} is not a visible splat object in the view layer")
 
 
 def export_evaluated(obj, depsgraph, path) -> None:
     """Write obj's evaluated splats at the depsgraph's frame to .ply or .splat, object-local."""
     fmt = formats.format_for_output(path)
-    splats = baked_splats(evaluated_item(obj, depsgraph))
+    try:
+        splats = baked_splats(evaluated_item(obj, depsgraph))
+    except LookupError as exc:
+        raise SplatFormatError(path, str(exc)) from None
     splats.axes = object_axes(obj)
     if splats.count == 0:
         raise SplatFormatError(path, f"object {obj.name!r} has no splats at this frame")

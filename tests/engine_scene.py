@@ -84,6 +84,23 @@ def orbit_keys(bpy, camera, radius, height, frames, target=(0.0, 0.0, 0.0)):
         camera.keyframe_insert("rotation_euler", frame=frame)
 
 
+def guitar_scene(bpy, testdata, frames, width, height, count):
+    """guitar.ply (the `count` most important splats) seen by a camera orbiting it."""
+    from addon.blender.import_splats import import_file
+    from addon.blender.pointcloud import splats_from_pointcloud
+
+    obj = import_file(bpy.context, testdata / "guitar.ply", max_count=count)
+    local = splats_from_pointcloud(obj.data).positions.astype(np.float64)
+    world = local @ np.array(obj.matrix_world)[:3, :3].T + np.array(obj.matrix_world)[:3, 3]
+    lo, hi = np.percentile(world, [2, 98], axis=0)  # the capture, not its stray splats
+    centre, size = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
+    camera = add_camera(bpy, location=tuple(centre + (0, -size, 0)), target=tuple(centre))
+    orbit_keys(bpy, camera, radius=1.1 * size, height=0.1 * size, frames=frames, target=tuple(centre))
+    scene = setup_render(bpy, width, height)
+    scene.frame_start, scene.frame_end = frames[0], frames[-1]
+    return scene, centre, size
+
+
 def read_exr_parts(path):
     """{part name: (H, W, C) float32 top-down} for every part of a multi-part EXR."""
     import OpenImageIO as oiio

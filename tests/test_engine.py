@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.core.colorspace import linear_to_srgb
-from engine_scene import (add_camera, add_splats, flat_splats, orbit_keys, read_exr_parts,
+from engine_scene import (add_camera, add_splats, flat_splats, guitar_scene, read_exr_parts,
                           read_image, set_output, setup_render)
 
 W, H = 160, 120
@@ -36,26 +36,9 @@ def test_png_with_standard_view_gives_the_capture_colour(bpy_empty, tmp_path):
         assert pixel[3] >= 250  # alpha 0.99 at the centre, a little less half a pixel off
 
 
-def _guitar_scene(bpy, testdata, frames):
-    from addon.blender.import_splats import import_file
-
-    from addon.blender.pointcloud import splats_from_pointcloud
-
-    obj = import_file(bpy.context, testdata / "guitar.ply", max_count=12000)
-    local = splats_from_pointcloud(obj.data).positions.astype(np.float64)
-    world = local @ np.array(obj.matrix_world)[:3, :3].T + np.array(obj.matrix_world)[:3, 3]
-    lo, hi = np.percentile(world, [2, 98], axis=0)  # the capture, not its stray splats
-    centre, size = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
-    camera = add_camera(bpy, location=tuple(centre + (0, -size, 0)), target=tuple(centre))
-    orbit_keys(bpy, camera, radius=1.1 * size, height=0.1 * size, frames=frames, target=tuple(centre))
-    scene = setup_render(bpy, W, H)
-    scene.frame_start, scene.frame_end = frames[0], frames[-1]
-    return scene, centre, size
-
-
 def test_animation_writes_exr_sequence_and_mp4_of_guitar(bpy_empty, testdata, tmp_path):
     bpy = bpy_empty
-    scene, centre, size = _guitar_scene(bpy, testdata, frames=[1, 2, 3])
+    scene, centre, size = guitar_scene(bpy, testdata, [1, 2, 3], W, H, count=12000)
     set_output(scene, "EXR", tmp_path / "exr" / "guitar_####")
     bpy.ops.render.render(animation=True)
     set_output(scene, "MP4", tmp_path / "mp4" / "guitar_")

@@ -175,8 +175,6 @@ def _prepare(bpy, args):
     if args.frames:
         scene.frame_start, scene.frame_end = parse_frames(args.frames)
     if args.step is not None:
-        if args.step < 1:
-            raise UserError(f"--step {args.step}: must be at least 1")
         scene.frame_step = args.step
     if args.resolution:
         scene.render.resolution_x, scene.render.resolution_y = parse_resolution(args.resolution)
@@ -197,10 +195,21 @@ def _prepare(bpy, args):
     return scene
 
 
-def run(args) -> int:
-    blend = os.path.abspath(args.blend)
-    if not os.path.isfile(blend):
+def _check_args(args) -> None:
+    """What can be checked without starting Blender (fast one-line errors)."""
+    if not os.path.isfile(args.blend):
         raise UserError(f"{args.blend}: no such .blend file")
+    if args.frames:
+        parse_frames(args.frames)
+    if args.resolution:
+        parse_resolution(args.resolution)
+    if args.step is not None and args.step < 1:
+        raise UserError(f"--step {args.step}: must be at least 1")
+
+
+def run(args) -> int:
+    _check_args(args)
+    blend = os.path.abspath(args.blend)
     os.makedirs(args.out, exist_ok=True)
     from . import blender_session
     try:

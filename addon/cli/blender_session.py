@@ -11,10 +11,12 @@ def start(blend_path=None):
 
     from .. import register
 
+    # Register before loading: a .blend that uses the Splatline engine or properties
+    # then loads without "engine not available" reports (registration survives loads).
+    if not hasattr(bpy.types.Object, "splatline"):
+        register()
     if blend_path is None:
         bpy.ops.wm.read_factory_settings(use_empty=True)
     else:
         bpy.ops.wm.open_mainfile(filepath=str(blend_path))
-    if not hasattr(bpy.types.Object, "splatline"):
-        register()
     return bpy

@@ -129,7 +129,7 @@ def test_saved_preset_reapplies_same_keys(bpy_empty, tmp_path, monkeypatch):
 
 def test_core_rejects_bad_presets(tmp_path):
     bad = tmp_path / "bad.json"
-    bad.write_text('{"effects": [{"type": "REVEAL", "keys": {"progress": [[0, "size + __import__('os')"]]}}]}')
+    bad.write_text('{"effects": [{"type": "REVEAL", "keys": {"progress": [[0, "size + open(1)"]]}}]}')
     preset = core.load(bad)
     with pytest.raises(ValueError, match="unsupported expression"):
         core.resolve(preset.effects[0].keys["progress"][0][1], {"size": 1.0})

@@ -3,10 +3,12 @@ PointCloud object against Blender's own C++ `bpy.ops.wm.ply_import` of the same 
 
     python -m bench import            (or: make bench)
 
-Each variant runs in its own fresh Python process: one for the timings (a warm-up, then
-RUNS timed imports, the created data removed after each), and one more for the memory (a
-single import; peak RSS from /proc/self/status VmHWM, which counts C allocations that
-tracemalloc cannot see). The file is generated once in a temporary folder and deleted.
+Every run is one import in a fresh Python process (bpy imported and an empty scene set up
+before the clock starts), as a user's first import would be; the variants alternate, so
+load from other processes on the machine hits both alike. Peak memory is that process's
+RSS high-water mark (/proc/self/status VmHWM, which counts the C allocations tracemalloc
+cannot see) minus its RSS just before the import. The file is generated once in a
+temporary folder (the page cache then holds it for both variants) and deleted.
 """
 from __future__ import annotations
 
@@ -52,25 +54,19 @@ def _importer(variant: str, bpy):
     return lambda path: bpy.ops.wm.ply_import(filepath=path)
 
 
-def worker(variant: str, path: str, runs: int) -> dict:
-    """Runs in the child process; prints one JSON line."""
+def worker(variant: str, path: str) -> dict:
+    """Runs in the child process: one timed import."""
     sys.path.insert(0, ROOT)
     import bpy
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     run = _importer(variant, bpy)
     rss_before = _status_kb("VmRSS")
-    times = []
-    for i in range(runs + (1 if runs > 1 else 0)):
-        t0 = time.perf_counter()
-        run(path)
-        times.append(time.perf_counter() - t0)
-        if i == 0:
-            peak = _status_kb("VmHWM") - rss_before
-            points = _count(bpy)
-        _clear(bpy)
-    timed = times[1:] if runs > 1 else times
-    return {"variant": variant, "times": timed, "peak_mb": peak / 1024, "points": points}
+    t0 = time.perf_counter()
+    run(path)
+    seconds = time.perf_counter() - t0
+    peak = _status_kb("VmHWM") - rss_before
+    return {"variant": variant, "seconds": seconds, "peak_mb": peak / 1024, "points": _count(bpy)}
 
 
 def _count(bpy) -> int:
@@ -78,8 +74,8 @@ def _count(bpy) -> int:
     return len(obj.data.points) if obj.type == "POINTCLOUD" else len(obj.data.vertices)
 
 
-def _child(variant: str, path: str, runs: int) -> dict:
-    cmd = [sys.executable, "-m", "bench.import_bench", "--worker", variant, path, str(runs)]
+def _child(variant: str, path: str) -> dict:
+    cmd = [sys.executable, "-m", "bench.import_bench", "--worker", variant, path]
     out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=True).stdout
     # Blender's own C prints share stdout and may be flushed after ours: find our line
     line = next(line for line in out.splitlines() if line.startswith(MARKER))
@@ -100,20 +96,23 @@ def main(runs: int = RUNS) -> dict:
     with tempfile.TemporaryDirectory(prefix="splatline_bench_") as folder:
         path = make_file(folder)
         size_mb = os.path.getsize(path) / 1e6
-        results = {}
-        for variant in VARIANTS:
-            timing = _child(variant, path, runs)
-            memory = _child(variant, path, 1)
-            results[variant] = {"median": statistics.median(timing["times"]), "min": min(timing["times"]),
-                                "runs": len(timing["times"]), "peak_mb": memory["peak_mb"],
-                                "points": timing["points"]}
+        runs_of = {v: [] for v in VARIANTS}
+        for _ in range(runs):
+            for variant in VARIANTS:
+                runs_of[variant].append(_child(variant, path))
+    results = {}
+    for variant, rs in runs_of.items():
+        times = [r["seconds"] for r in rs]
+        results[variant] = {"median": statistics.median(times), "min": min(times), "runs": len(rs),
+                            "peak_mb": statistics.median(r["peak_mb"] for r in rs),
+                            "points": rs[0]["points"]}
     _print(results, size_mb)
     return results
 
 
 def _print(results: dict, size_mb: float) -> None:
     print(f"INRIA PLY, {COUNT:,} splats, SH degree {DEGREE}, {size_mb:.0f} MB; medians of "
-          f"{results['splatline']['runs']} runs after a warm-up, each variant in a fresh process")
+          f"{results['splatline']['runs']} runs, each one import in a fresh process, variants alternating")
     print(f"{'variant':40s} {'median s':>9s} {'min s':>7s} {'points':>9s} {'peak RSS +MB':>13s}")
     for variant in VARIANTS:
         r = results[variant]
@@ -123,7 +122,7 @@ def _print(results: dict, size_mb: float) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) >= 5 and sys.argv[1] == "--worker":
-        print(MARKER + json.dumps(worker(sys.argv[2], sys.argv[3], int(sys.argv[4]))), flush=True)
+    if len(sys.argv) >= 4 and sys.argv[1] == "--worker":
+        print(MARKER + json.dumps(worker(sys.argv[2], sys.argv[3])), flush=True)
     else:
         main()

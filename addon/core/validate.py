@@ -54,12 +54,19 @@ def _rows_nonfinite(arr: np.ndarray) -> np.ndarray:
     """Boolean (N,) mask of rows holding a NaN/Inf. A row sum (a BLAS mat-vec with ones,
     several times faster than isfinite().all()) is non-finite whenever a value is; the
     rows it flags, including finite sums that overflowed, are checked exactly."""
-    flat = arr.reshape(arr.shape[0], -1)
-    with np.errstate(over="ignore", invalid="ignore"):
-        suspect = ~np.isfinite(flat @ np.ones(flat.shape[1], flat.dtype))
+    planes = arr.transpose(1, 0, 2) if arr.ndim == 3 else None
+    if planes is not None and planes.flags.c_contiguous and not arr.flags.c_contiguous:
+        # sh_rest stored as coefficient planes (formats/ply.py): sum the planes, no copy
+        flat = arr
+        with np.errstate(over="ignore", invalid="ignore"):
+            suspect = ~np.isfinite(planes.sum(axis=0) @ np.ones(3, arr.dtype))
+    else:
+        flat = arr.reshape(arr.shape[0], -1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            suspect = ~np.isfinite(flat @ np.ones(flat.shape[1], flat.dtype))
     if suspect.any():
         idx = np.flatnonzero(suspect)
-        suspect[idx] = ~np.isfinite(flat[idx]).all(axis=1)
+        suspect[idx] = ~np.isfinite(flat[idx].reshape(idx.size, -1)).all(axis=1)
     return suspect
 
 

@@ -53,16 +53,29 @@ def rest_names(rest_count: int) -> list:
     return [f"f_rest_{i}" for i in range(rest_count)]
 
 
+BLOCK = 2048  # records per block: a block of records and its SH stay in cache
+
+
 def sh_rest_from(rec: np.ndarray, k: int, keep: int) -> np.ndarray:
-    """Channel-major f_rest (3 * k fields) -> (N, keep, 3) coefficient-major float32."""
+    """Channel-major f_rest (3 * k fields) -> (N, keep, 3) coefficient-major float32.
+
+    The result is a view of coefficient planes (keep, N, 3): each sh_rest[:, j] is one
+    contiguous (N, 3) array, which Blender's attribute upload takes without a copy. It is
+    filled block by block through a small contiguous buffer: a direct strided transpose
+    of 1M degree-3 records measured 2-4x slower on this machine."""
     n = rec.shape[0]
-    out = np.empty((n, keep, 3), np.float32)
+    out = np.empty((keep, n, 3), np.float32).transpose(1, 0, 2)
     if keep == 0:
         return out
     names = rest_names(3 * k)
     view = _block_view(rec, names) if n else None
     if view is not None:
-        np.copyto(out, view.reshape(n, 3, k)[:, :, :keep].transpose(0, 2, 1), casting="unsafe")
+        src = view.reshape(n, 3, k)
+        tmp = np.empty((min(BLOCK, n), 3, k), view.dtype)
+        for i in range(0, n, BLOCK):
+            b = min(BLOCK, n - i)
+            np.copyto(tmp[:b], src[i:i + b])
+            np.copyto(out[i:i + b], tmp[:b, :, :keep].transpose(0, 2, 1), casting="unsafe")
     else:
         for c in range(3):
             for j in range(keep):

@@ -194,3 +194,25 @@ def test_baked_splats_fold_scale_opacity_degree():
     np.testing.assert_array_equal(out.sh_rest, splats.sh_rest[:, :3])
     np.testing.assert_array_equal(out.positions, splats.positions)
     assert baked_splats(RenderItem(splats=splats, opacity_scale=5.0)).opacities.max() <= 1.0
+
+
+def test_read_ahead_in_progress_is_awaited_not_decoded_twice(tmp_path):
+    path = str(tmp_path / "f_0.ply")
+    write(path, random_splats(50, degree=1, seed=0))
+    started, release, loads = threading.Event(), threading.Event(), []
+
+    def slow_read(p):  # a reader that takes as long as the test wants
+        loads.append(p)
+        started.set()
+        release.wait(10)
+        return read(p)
+
+    cache = seq.FrameCache(1 << 30)
+    ahead = seq.ReadAhead(cache, slow_read)
+    ahead.request([((path, 0), path, 0)])
+    assert started.wait(10)
+    threading.Timer(0.2, release.set).start()
+    ahead.wait_if_loading((path, 0))      # returns once the thread has put it
+    assert cache.get((path, 0)) is not None and loads == [path]
+    ahead.wait_if_loading(("other", 1))   # nothing loading: returns at once
+    ahead.stop()

@@ -77,6 +77,9 @@ class SequenceRuntime:
         key = (path, index)
         splats = self.cache.get(key, signature)
         if splats is None:
+            self.read_ahead.wait_if_loading(key)
+            splats = self.cache.get(key, signature)
+        if splats is None:
             try:
                 splats = _load(path)
             except SplatFormatError as exc:

@@ -227,6 +227,7 @@ class ReadAhead:
         self._cond = threading.Condition()
         self._stopping = False
         self._busy = False
+        self._loading = None       # key being decoded right now
         self._thread = None
 
     @property
@@ -249,6 +250,12 @@ class ReadAhead:
         with self._cond:
             return self._cond.wait_for(lambda: not self._pending and not self._busy, timeout)
 
+    def wait_if_loading(self, key, timeout: float = 60.0) -> None:
+        """If the thread is decoding key right now, wait for it rather than decode it twice
+        (the second decode would also compete with the first for the CPU)."""
+        with self._cond:
+            self._cond.wait_for(lambda: self._loading != key, timeout)
+
     def stop(self) -> None:
         with self._cond:
             self._stopping = True
@@ -261,12 +268,15 @@ class ReadAhead:
     def _next_job(self):
         with self._cond:
             self._busy = False
+            self._loading = None
             self._cond.notify_all()
             self._cond.wait_for(lambda: self._pending or self._stopping)
             if self._stopping:
                 return None
             self._busy = True
-            return self._pending.pop(0)
+            job = self._pending.pop(0)
+            self._loading = job[0]
+            return job
 
     def _run(self) -> None:
         while (job := self._next_job()) is not None:

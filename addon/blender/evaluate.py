@@ -21,7 +21,7 @@ from ..core import look as core_look
 from ..core.effects import evaluate_stack
 from ..core.scene import RenderItem
 from . import effect_params
-from .pointcloud import is_splat_data, splats_from_pointcloud
+from .pointcloud import BASE, is_splat_data, splats_from_pointcloud
 
 try:
     from . import sequence_runtime
@@ -46,12 +46,42 @@ def splat_objects(depsgraph):
             yield obj
 
 
+_VALUE = {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color"}  # FLOAT4, QUATERNION: "value"
+
+
+def _sample(pointcloud, count: int, samples: int = 64) -> tuple:
+    """A few values of the centres and colours, spread over the points (~0.3 ms): catches
+    data replaced or rewritten without a depsgraph update we could see."""
+    if count == 0:
+        return ()
+    index = np.unique(np.linspace(0, count - 1, samples).astype(np.int64))
+    out = []
+    for name in ("position", BASE):
+        attribute = pointcloud.attributes.get(name)
+        if attribute is not None:
+            field = _VALUE.get(attribute.data_type, "value")
+            data = attribute.data
+            out.extend(tuple(getattr(data[int(i)], field)) for i in index)
+    return tuple(out)
+
+
+def _animated(obj) -> bool:
+    for owner in (obj, obj.data):
+        anim = getattr(owner, "animation_data", None)
+        if anim is not None and (anim.action is not None or len(anim.drivers)):
+            return True
+    return False
+
+
 class BaseCache:
     """SplatSets read from evaluated PointClouds, keyed by what makes them change.
 
-    `versions` counts geometry updates per PointCloud datablock (depsgraph_update_post);
-    objects with modifiers are also keyed by frame, as their evaluated geometry may be
-    animated. Cached arrays are read-only: kernels and renderers never write them.
+    The key holds the data's name and point count, a sample of its values, and a version
+    bumped by depsgraph updates that report the PointCloud's geometry changed. Animated
+    objects are excluded from the latter: Blender reports their geometry as updated on
+    every re-evaluation, which would re-read the data (~1 s per 1M splats) per frame; the
+    sample covers them. Objects with modifiers are also keyed by frame. Cached arrays are
+    read-only: kernels and renderers never write them.
     """
 
     def __init__(self):
@@ -60,10 +90,12 @@ class BaseCache:
 
     def key(self, obj_eval, depsgraph) -> tuple:
         original = obj_eval.original
-        data_name = obj_eval.data.original.name_full
+        data = obj_eval.data
+        data_name = data.original.name_full
+        count = len(data.points)
         frame = depsgraph.scene_eval.frame_float if len(original.modifiers) else None
-        return (original.name_full, data_name, self.versions.get(data_name, 0),
-                len(obj_eval.data.points), frame)
+        return (original.name_full, data_name, self.versions.get(data_name, 0), count, frame,
+                hash(_sample(data, count)))
 
     def get(self, obj_eval, depsgraph):
         key = self.key(obj_eval, depsgraph)
@@ -79,10 +111,15 @@ class BaseCache:
         return hit[1], hit[0]
 
     def on_update(self, depsgraph) -> None:
-        for update in depsgraph.updates:
+        updates = list(depsgraph.updates)
+        animated_data = {u.id.original.data.name_full for u in updates
+                         if isinstance(u.id, bpy.types.Object) and u.id.original.data is not None
+                         and _animated(u.id.original)}
+        for update in updates:
             if isinstance(update.id, bpy.types.PointCloud) and update.is_updated_geometry:
                 name = update.id.original.name_full
-                self.versions[name] = self.versions.get(name, 0) + 1
+                if name not in animated_data:
+                    self.versions[name] = self.versions.get(name, 0) + 1
 
     def clear(self) -> None:
         self.entries.clear()
@@ -122,8 +159,8 @@ def _crop(look):
 
 
 def _effect_stack(obj_eval, depsgraph, world, fps, source, source_key):
-    """(core params list, signature of the position-changing ones)."""
-    stack, signature = [], []
+    """(core params list, signatures of all active effects, of the position-changing ones)."""
+    stack, signature, moving = [], [], []
     for effect in obj_eval.splatline.effects:
         if not effect.enabled or effect.amount <= 0.0:
             continue
@@ -138,26 +175,37 @@ def _effect_stack(obj_eval, depsgraph, world, fps, source, source_key):
             morph = _MORPH.target(source, source_key, target_splats, target_key, relative)
             extra = (target_key, relative.tobytes())
         stack.append(effect_params.build(effect, frame, fps, morph))
+        signature.append(effect_params.signature(effect, frame, extra))
         if effect.type in effect_params.POSITION_TYPES:
-            signature.append(effect_params.signature(effect, frame, extra))
-    return stack, tuple(signature)
+            moving.append(signature[-1])
+    return stack, tuple(signature), tuple(moving)
 
 
 def item_for(obj_eval, depsgraph=None) -> RenderItem:
+    """The RenderItem of one evaluated splat object.
+
+    key: (name, base key) while the splats are the base data itself; with crop or effects,
+    (name, base key, time, crop, effect signatures), so equal keys mean equal splats and a
+    renderer's per-key upload cache never shows a stale frame.
+    """
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     world = np.array(obj_eval.matrix_world, np.float64)
-    splats, key = base_splats(obj_eval, depsgraph)
+    base, base_key = base_splats(obj_eval, depsgraph)
+    name = obj_eval.original.name  # key[0] is the object's name (callers match on it)
     settings = getattr(obj_eval, "splatline", None)
-    key = (obj_eval.original.name, key)  # key[0] is the object's name (callers match on it)
     if settings is None:
-        return RenderItem(splats=replace(splats), world=world, key=key, positions_key=key)
+        key = (name, base_key)
+        return RenderItem(splats=replace(base), world=world, key=key, positions_key=key)
     look = settings.look
     box, sphere = _crop(look)
-    splats = core_look.apply_crop(splats, box, sphere)
+    splats = core_look.apply_crop(base, box, sphere)
     time, fps = scene_time(depsgraph)
-    stack, signature = _effect_stack(obj_eval, depsgraph, world, fps, splats, key[1])
+    stack, signature, moving = _effect_stack(obj_eval, depsgraph, world, fps, splats, base_key)
     result = evaluate_stack(splats, stack, time)
-    positions_key = (key, time, signature) if result.positions_changed else key
+    key = (name, base_key)
+    if result.splats is not base:
+        key = (name, base_key, time, (box, sphere), signature)
+    positions_key = (name, base_key, time, moving) if result.positions_changed else (name, base_key)
     return RenderItem(
         splats=replace(result.splats), world=world, splat_scale=float(look.size),
         opacity_scale=float(look.opacity), sh_degree=int(look.max_sh_degree),

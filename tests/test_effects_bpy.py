@@ -1,0 +1,113 @@
+"""The effect stack through bpy: copy-on-write, the base-splat cache, operators and keys."""
+from __future__ import annotations
+
+import numpy as np
+
+from animation_scene import add_object, grid_splats, items_at
+
+
+def _add(bpy, obj, kind):
+    bpy.context.view_layer.objects.active = obj
+    with bpy.context.temp_override(object=obj):
+        assert bpy.ops.splatline.effect_add(type=kind) == {"FINISHED"}
+    return obj.splatline.effects[-1]
+
+
+def test_no_effects_costs_nothing_and_returns_the_cached_base(bpy_empty):
+    bpy = bpy_empty
+    add_object("capture", grid_splats())
+    a = items_at(bpy, 1)[0]
+    b = items_at(bpy, 7)[0]
+    # the very same read-only arrays: no per-frame reading or copying
+    assert a.splats.positions is b.splats.positions and a.splats.sh_rest is b.splats.sh_rest
+    assert not a.splats.positions.flags.writeable
+    assert a.key == b.key and a.positions_key == b.positions_key
+
+
+def test_colour_and_opacity_effects_leave_positions_and_their_key(bpy_empty):
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats())
+    base = items_at(bpy, 1)[0].splats
+    grade = _add(bpy, obj, "GRADE")
+    reveal = _add(bpy, obj, "REVEAL")
+    grade.grade_field, reveal.reveal_shape, reveal.glow_strength = "NOISE", "NOISE", 1.0
+    look = obj.splatline.look
+    look.use_crop_sphere, look.crop_sphere_radius = True, 1.0
+    for name, pairs in (("amount", ((1, 0.1), (20, 1.0))),):
+        for frame, value in pairs:
+            setattr(grade, name, value)
+            grade.keyframe_insert(name, frame=frame)
+    reveal.keyframe_insert("progress", frame=1)
+    reveal.progress = 1.0
+    reveal.keyframe_insert("progress", frame=20)
+    first, later = items_at(bpy, 3)[0], items_at(bpy, 15)[0]
+    # adding effects may re-read the base once (a stack edit); animating them never does
+    assert first.splats.positions is later.splats.positions
+    np.testing.assert_array_equal(first.splats.positions, base.positions)
+    assert first.positions_key == later.positions_key
+    assert first.key != later.key, "the colours changed, so the data key must"
+    assert not np.array_equal(first.splats.sh_dc, later.splats.sh_dc)
+    # a moving effect changes positions and their key
+    _add(bpy, obj, "DISPLACE")
+    moved = items_at(bpy, 15)[0]
+    assert moved.positions_key != later.positions_key
+    assert not np.array_equal(moved.splats.positions, base.positions)
+
+
+def test_base_cache_rereads_on_geometry_edits_only(bpy_empty):
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats())
+    first = items_at(bpy, 1)[0].splats
+    obj.splatline.look.exposure = 1.0
+    obj.location.x = 2.0
+    again = items_at(bpy, 1)[0].splats
+    assert again.positions is first.positions, "look or transform changes must not reread data"
+    new = np.zeros(first.count * 3, np.float32)
+    obj.data.attributes["position"].data.foreach_set("vector", new)
+    obj.data.update_tag()
+    edited = items_at(bpy, 1)[0].splats
+    assert not edited.positions.any() and edited.positions is not first.positions
+
+
+def test_morph_to_target_through_bpy_equals_target_in_source_space(bpy_empty):
+    bpy = bpy_empty
+    src = add_object("source", grid_splats(seed=1))
+    tgt_splats = grid_splats(n_side=3, seed=2)
+    tgt = add_object("target", tgt_splats, location=(1.0, 2.0, 3.0))
+    src.location = (0.5, 0.0, 0.0)
+    effect = _add(bpy, src, "MORPH")
+    effect.target, effect.amount = tgt, 1.0
+    items = {item.key[0]: item for item in items_at(bpy, 1)}
+    morphed = items["source"].splats
+    # at 1 the source shows exactly the target's splats, moved into the source's space
+    np.testing.assert_allclose(morphed.positions, tgt_splats.positions + [0.5, 2.0, 3.0], atol=1e-6)
+    np.testing.assert_array_equal(morphed.opacities, tgt_splats.opacities)
+    np.testing.assert_array_equal(morphed.sh_dc, tgt_splats.sh_dc)
+    effect.amount = 0.0
+    src.update_tag(refresh={"TIME"})
+    unmorphed = {i.key[0]: i for i in items_at(bpy, 1)}["source"].splats
+    np.testing.assert_array_equal(unmorphed.positions, grid_splats(seed=1).positions)
+
+
+def test_move_and_remove_keep_keyframes_with_their_effect(bpy_empty):
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats())
+    first, second = _add(bpy, obj, "REVEAL"), _add(bpy, obj, "TWIST")
+    first.keyframe_insert("progress", frame=1)
+    second.keyframe_insert("twist", frame=1)
+    from addon.blender.effect_ops import _channel_fcurves
+
+    def paths():
+        return sorted(c.data_path for c in _channel_fcurves(obj))
+
+    obj.splatline.active_effect = 0
+    with bpy.context.temp_override(object=obj):
+        assert bpy.ops.splatline.effect_move(direction="DOWN") == {"FINISHED"}
+    assert [e.type for e in obj.splatline.effects] == ["TWIST", "REVEAL"]
+    assert paths() == ["splatline.effects[0].twist", "splatline.effects[1].progress"]
+    obj.splatline.active_effect = 0
+    with bpy.context.temp_override(object=obj):
+        assert bpy.ops.splatline.effect_remove() == {"FINISHED"}
+        assert bpy.ops.splatline.effect_duplicate() == {"FINISHED"}
+    assert paths() == ["splatline.effects[0].progress"]
+    assert [e.type for e in obj.splatline.effects] == ["REVEAL", "REVEAL"]

@@ -4,7 +4,10 @@ from __future__ import annotations
 import importlib
 import sys
 
-TABLES = ("import_bench", "render_bench", "viewport_bench", "effects_bench", "sequence_bench")
+TABLES = (
+    "formats_bench", "import_bench", "reference_bench", "render_bench", "viewport_bench",
+    "effects_bench", "sequence_bench",
+)
 
 
 def main(argv) -> int:

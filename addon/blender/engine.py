@@ -4,6 +4,7 @@ Blender makes a new engine instance for every frame, so the offscreen renderer (
 GL context, worker thread and GPU buffers) lives in a module-level holder instead:
 created on the first frame of a render job, reused by the following frames, and
 closed when the job completes or is cancelled, and on unregister.
+Headless Ctrl+C stops a job between frames (render_stop.py).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from .camera import camera_from_blender
 from .evaluate import collect_items
 from .render_film import (blender_depth, bottom_up, composite_over, region_camera,
                           render_region, to_scene_linear)
+from .render_stop import SigintGuard, stop_requested
 
 
 class _ReferenceRenderer:
@@ -70,21 +72,7 @@ class _RendererHolder:
 
 
 _HOLDER = _RendererHolder()
-# Set by a SIGINT handler (the command line installs one): the engine stops at its next
-# check, Blender writes no file for that frame and ends the job; finished frames stay.
-_STOP = threading.Event()
-
-
-def request_stop():
-    _STOP.set()
-
-
-def clear_stop():
-    _STOP.clear()
-
-
-def stop_requested() -> bool:
-    return _STOP.is_set()
+_SIGINT = SigintGuard()
 
 
 class _Stopped(Exception):
@@ -113,7 +101,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             self.report({"ERROR"}, f"Splatline: {type(exc).__name__}: {exc}")
 
     def _check(self):
-        if self.test_break() or _STOP.is_set():
+        if self.test_break() or stop_requested():
             raise _Stopped()
 
     def _render(self, depsgraph):
@@ -178,25 +166,33 @@ def _world_colour(scene):
 
 
 @bpy.app.handlers.persistent
+def _job_started(*_args):
+    _SIGINT.job_started(bpy.app.background)
+
+
+@bpy.app.handlers.persistent
 def _job_finished(*_args):
     _HOLDER.close()
+    _SIGINT.job_ended()
 
 
-_JOB_HANDLERS = ("render_complete", "render_cancel")
+_JOB_HANDLERS = (("render_init", _job_started), ("render_complete", _job_finished),
+                 ("render_cancel", _job_finished))
 
 
 def register():
     bpy.utils.register_class(SplatlineRenderEngine)
     render_panel.register()
-    for name in _JOB_HANDLERS:
-        getattr(bpy.app.handlers, name).append(_job_finished)
+    for name, fn in _JOB_HANDLERS:
+        getattr(bpy.app.handlers, name).append(fn)
 
 
 def unregister():
-    for name in _JOB_HANDLERS:
+    for name, fn in _JOB_HANDLERS:
         handlers = getattr(bpy.app.handlers, name)
-        while _job_finished in handlers:
-            handlers.remove(_job_finished)
+        while fn in handlers:
+            handlers.remove(fn)
     _HOLDER.close()
+    _SIGINT.job_ended()
     render_panel.unregister()
     bpy.utils.unregister_class(SplatlineRenderEngine)

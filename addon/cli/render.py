@@ -152,16 +152,16 @@ class _Progress:
 class _StopOnSigint:
     """First SIGINT: ask the engine to stop after saving nothing more; second: default."""
 
-    def __init__(self, engine):
-        self.engine, self._old = engine, None
+    def __init__(self, stop):
+        self.stop, self._old = stop, None
 
     def _handle(self, signum, frame):
-        self.engine.request_stop()
+        self.stop.request_stop()
         print("stopping: finished frames are kept (Ctrl+C again to quit now)", flush=True)
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
     def __enter__(self):
-        self.engine.clear_stop()
+        self.stop.clear_stop()
         self._old = signal.signal(signal.SIGINT, self._handle)
         return self
 
@@ -216,20 +216,20 @@ def run(args) -> int:
         bpy = blender_session.start(blend)
     except RuntimeError as exc:
         raise UserError(f"{args.blend}: cannot open: {str(exc).strip()}") from None
-    from ..blender import engine
+    from ..blender import render_stop
     scene = _prepare(bpy, args)
     total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))
     print(f"rendering {total} frame(s) {scene.frame_start}-{scene.frame_end} of {args.blend} "
           f"at {scene.render.resolution_x}x{scene.render.resolution_y} "
           f"{scene.render.resolution_percentage}% to {args.out}", flush=True)
     start = time.perf_counter()
-    with _Progress(bpy, total) as progress, _StopOnSigint(engine):
+    with _Progress(bpy, total) as progress, _StopOnSigint(render_stop):
         try:
             bpy.ops.render.render(animation=True, scene=scene.name)
         except RuntimeError as exc:
-            if not engine.stop_requested():
+            if not render_stop.stop_requested():
                 raise UserError(f"{args.blend}: {_one_line(exc)}") from None
-    if engine.stop_requested():
+    if render_stop.stop_requested():
         print(f"interrupted: {len(progress.times)} finished frame(s) kept in {args.out}", flush=True)
         return 130
     median = statistics.median(progress.times) if progress.times else 0.0

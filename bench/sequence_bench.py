@@ -4,7 +4,7 @@ evaluate.collect_items) with and without the frame cache and the read-ahead thre
     python -m bench sequence
 
 Frames: FRAMES PLYs of COUNT splats with degree-3 SH, written to a temporary folder.
-Rows (medians over the frames of each pass; the first frame of each pass is excluded since
+Rows (medians over the frames of RUNS passes; the first frame of each pass is excluded since
 nothing can have read it ahead):
 - decode only: formats.read of one frame, the baseline every row is compared with
 - cold: cache budget 0 and no read-ahead, so every step decodes its frame synchronously
@@ -24,6 +24,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FRAMES = 8
 COUNT = 100_000
 WORK_S = 0.08
+RUNS = 3
 
 
 def _step_times(bpy, collect_items, frames, work_s=0.0):
@@ -66,19 +67,23 @@ def main() -> None:
         seq = obj.splatline.sequence
         rows = [("decode only (formats.read)", decode[1:])]
 
+        cold, ahead, cached = [], [], []
+        for _ in range(RUNS):  # each run starts from an empty cache
+            sequence_runtime.shutdown()
+            seq.cache_budget_mb, seq.read_ahead = 0, 0
+            cold += _step_times(bpy, collect_items, frames)
+            sequence_runtime.shutdown()
+            seq.cache_budget_mb, seq.read_ahead = 512, 4
+            ahead += _step_times(bpy, collect_items, frames, WORK_S)
+            cached += _step_times(bpy, collect_items, frames)
         sequence_runtime.shutdown()
-        seq.cache_budget_mb, seq.read_ahead = 0, 0
-        rows.append(("cold: budget 0, no read-ahead", _step_times(bpy, collect_items, frames)))
-
-        sequence_runtime.shutdown()
-        seq.cache_budget_mb, seq.read_ahead = 512, 4
-        rows.append((f"read-ahead 4, {WORK_S * 1000:.0f} ms work between steps",
-                     _step_times(bpy, collect_items, frames, WORK_S)))
-        rows.append(("cached: second pass", _step_times(bpy, collect_items, frames)))
-        sequence_runtime.shutdown()
+        rows += [("cold: budget 0, no read-ahead", cold),
+                 (f"read-ahead 4, {WORK_S * 1000:.0f} ms work between steps", ahead),
+                 ("cached: second pass", cached)]
 
     base = statistics.median(rows[0][1])
-    print(f"{FRAMES} frames x {COUNT} splats, degree 3 ({COUNT * 248 / 1e6:.1f} MB per PLY)")
+    print(f"{FRAMES} frames x {COUNT} splats, degree 3 ({COUNT * 248 / 1e6:.1f} MB per PLY), "
+          f"{RUNS} passes")
     print(f"{'case':48s} {'median ms/frame':>16s} {'vs decode':>10s}")
     for label, times in rows:
         med = statistics.median(times)

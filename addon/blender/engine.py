@@ -150,14 +150,34 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
 
     def view_update(self, context, depsgraph):
-        pass
+        # Rendered viewport shading: read the splats when the depsgraph changes, not per redraw.
+        self._view_items = collect_items(depsgraph)
 
     def view_draw(self, context, depsgraph):
-        # The viewport module draws rendered shading once it provides a draw function.
+        """Rendered viewport shading: the world (or nothing) behind the viewport's splat drawing.
+
+        The viewport framebuffer is display space; with the Standard view that is sRGB,
+        the space the splats are blended in.
+        """
+        import gpu
+
+        from ..core.colorspace import linear_to_srgb
         from . import viewport
-        draw = getattr(viewport, "draw_engine_view", None)
-        if draw is not None:
-            draw(self, context, depsgraph)
+
+        scene = depsgraph.scene
+        framebuffer = gpu.state.active_framebuffer_get()
+        if scene.render.film_transparent:
+            framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0))
+        else:
+            framebuffer.clear(color=(*(float(c) for c in linear_to_srgb(_world_colour(scene))), 1.0))
+        items = getattr(self, "_view_items", None)
+        if items is None:
+            items = self._view_items = collect_items(depsgraph)
+        region, rv3d = context.region, context.region_data
+        if items and region is not None and rv3d is not None:
+            gpu.state.depth_test_set("NONE")
+            viewport.draw_items(items, rv3d.view_matrix, rv3d.window_matrix,
+                                (region.width, region.height))
 
 
 def _world_colour(scene):

@@ -168,3 +168,13 @@ def test_undo_removes_import(bpy_empty, testdata):
         bpy.ops.ed.redo()
     assert [o.name for o in bpy.data.objects] == ["test64"]
     assert len(bpy.data.objects["test64"].data.points) == 64
+
+
+def test_progress_and_report(bpy_empty, testdata):
+    from addon.blender.import_splats import import_file_with_report
+
+    seen = []
+    obj, report = import_file_with_report(bpy_empty.context, testdata / "test64.ply", progress=seen.append)
+    assert seen == [0.5, 1.0]
+    assert report.count_in_file == 64 and report.sh_degree_in_file == 3
+    assert len(obj.data.points) == 64

@@ -46,12 +46,15 @@ def object_name(path) -> str:
 
 
 def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, max_count=0,
-                            axes="AUTO", collection=None, bad="fix"):
-    """import_file, also returning the reader's ReadReport (bad-value counts, file degree)."""
+                            axes="AUTO", collection=None, bad="fix", progress=None):
+    """import_file, also returning the reader's ReadReport (bad-value counts, file degree).
+    progress, if given, is called with the fraction done (0..1) after each stage."""
     if axes not in AXES_ITEMS:
         raise ValueError(f"axes {axes!r} is not one of {AXES_ITEMS}")
     splats, report = read_for_import(path, max_sh_degree=max_sh_degree, min_opacity=min_opacity,
                                      max_count=max_count, bad=bad)
+    if progress is not None:
+        progress(0.5)  # reading and building take about as long (bench/import_bench.py)
     if axes != "AUTO":
         splats.axes = axes
     target = collection or context.collection or context.scene.collection
@@ -67,6 +70,8 @@ def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, 
         bpy.data.objects.remove(obj)
         bpy.data.pointclouds.remove(pointcloud)
         raise
+    if progress is not None:
+        progress(1.0)
     return obj, report
 
 

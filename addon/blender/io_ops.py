@@ -70,7 +70,8 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                 try:
                     obj, report = import_file_with_report(
                         context, path, max_sh_degree=self.max_sh_degree, min_opacity=self.min_opacity,
-                        max_count=self.max_count, axes=self.axes, bad=self.bad_values)
+                        max_count=self.max_count, axes=self.axes, bad=self.bad_values,
+                        progress=lambda done, i=i: wm.progress_update(i + done))
                 except SplatFormatError as exc:
                     errors.append(str(exc))
                 except (OSError, MemoryError) as exc:
@@ -79,7 +80,6 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                     imported.append(obj)
                     if report.bad.total:
                         self.report({"WARNING"}, f"{path}: {report.bad.summary()}")
-                wm.progress_update(i + 1)
         finally:
             wm.progress_end()
         for message in errors:

@@ -35,25 +35,21 @@ def schema(degree: int) -> list[tuple[str, str]]:
     return names + [(sh_name(k), "FLOAT_VECTOR") for k in range(sh_coeff_count(degree))]
 
 
-def _contiguous(values: np.ndarray, scratch: np.ndarray | None = None) -> np.ndarray:
-    """A C-contiguous float32 view or copy; copies into scratch when it fits, to avoid
-    touching fresh memory for every attribute."""
+def _contiguous(values: np.ndarray) -> np.ndarray:
+    """A C-contiguous float32 view, or a copy only when the layout needs one."""
     if values.dtype == np.float32 and values.flags.c_contiguous:
         return values
-    if scratch is not None and scratch.shape == values.shape:
-        np.copyto(scratch, values, casting="unsafe")
-        return scratch
     return np.ascontiguousarray(values, np.float32)
 
 
-def _set(attributes, name, data_type, values: np.ndarray, scratch=None):
+def _set(attributes, name, data_type, values: np.ndarray):
     attribute = attributes.get(name)
     if attribute is not None and attribute.data_type != data_type:
         attributes.remove(attribute)
         attribute = None
     if attribute is None:
         attribute = attributes.new(name, data_type, "POINT")
-    flat = _contiguous(values, scratch).reshape(-1)
+    flat = _contiguous(values).reshape(-1)
     attribute.data.foreach_set(_VALUE_KEY[data_type], flat)
 
 

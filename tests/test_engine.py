@@ -218,3 +218,18 @@ def test_missing_camera_is_one_clear_error(bpy_empty):
     setup_render(bpy, 16, 16)
     with pytest.raises(RuntimeError, match="no camera"):
         bpy.ops.render.render()
+
+
+def test_blender_output_panels_show_for_the_engine(_bpy_registered):
+    from addon import register, unregister
+    from addon.blender.render_panel import BUILTIN_PANELS
+
+    bpy = _bpy_registered
+    found = [getattr(bpy.types, name) for name in BUILTIN_PANELS if hasattr(bpy.types, name)]
+    assert len(found) == len(BUILTIN_PANELS), "every listed panel exists in Blender 5.0"
+    assert all("SPLATLINE" in panel.COMPAT_ENGINES for panel in found)
+    unregister()
+    try:
+        assert not any("SPLATLINE" in panel.COMPAT_ENGINES for panel in found)
+    finally:
+        register()

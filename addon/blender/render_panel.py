@@ -37,12 +37,45 @@ class SPLATLINE_PT_render(bpy.types.Panel):
 
 classes = (SPLATLINE_PT_render,)
 
+# Blender's own panels show only for the engines in their COMPAT_ENGINES: without these,
+# a Splatline scene would have no Format, Frame Range, Output, Encoding, Metadata, Colour
+# Management or camera Lens panels. Only the panels whose settings the engine honours.
+BUILTIN_PANELS = (
+    "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_time_stretching",
+    "RENDER_PT_output", "RENDER_PT_output_color_management", "RENDER_PT_output_views",
+    "RENDER_PT_output_pixel_density", "RENDER_PT_encoding", "RENDER_PT_encoding_video",
+    "RENDER_PT_encoding_audio", "RENDER_PT_stamp", "RENDER_PT_stamp_note", "RENDER_PT_stamp_burn",
+    "RENDER_PT_post_processing", "RENDER_PT_color_management",
+    "RENDER_PT_color_management_advanced", "RENDER_PT_color_management_curves",
+    "RENDER_PT_color_management_white_balance", "RENDER_PT_color_management_working_space",
+    "VIEWLAYER_PT_context_layer", "VIEWLAYER_PT_layer", "VIEWLAYER_PT_layer_passes",
+    "VIEWLAYER_PT_workbench_layer_passes_data",  # Combined and Z: the passes the engine writes
+    "WORLD_PT_context_world", "WORLD_PT_custom_props", "WORLD_PT_animation",
+    "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "CAMERA_PT_presets",
+    "DATA_PT_camera_safe_areas", "DATA_PT_camera_safe_areas_center_cut", "CAMERA_PT_safe_areas_presets",
+    "DATA_PT_camera_background_image", "DATA_PT_camera_display",
+    "DATA_PT_camera_display_composition_guides", "DATA_PT_camera_animation",
+    "DATA_PT_custom_props_camera", "DATA_PT_context_pointcloud", "DATA_PT_pointcloud_attributes",
+    "DATA_PT_custom_props_pointcloud", "OBJECT_PT_visibility",
+)
+
+
+def _builtin_panels():
+    for name in BUILTIN_PANELS:
+        panel = getattr(bpy.types, name, None)  # absent in some Blender versions
+        if panel is not None and isinstance(getattr(panel, "COMPAT_ENGINES", None), set):
+            yield panel
+
 
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
+    for panel in _builtin_panels():
+        panel.COMPAT_ENGINES.add(ENGINE)
 
 
 def unregister():
+    for panel in _builtin_panels():
+        panel.COMPAT_ENGINES.discard(ENGINE)
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -127,3 +127,30 @@ def test_reframe_preserves_geometry_and_colour(src, dst):
     np.testing.assert_allclose(sh_to_rgb(t.sh_dc, t.sh_rest, dirs @ r.T, 3),
                                sh_to_rgb(s.sh_dc, s.sh_rest, dirs, 3), atol=1e-5)
     assert reframe(s, src) is s
+
+
+def test_export_evaluated_applies_modifiers(bpy_empty, testdata, tmp_path):
+    """evaluated=True writes what the depsgraph makes of the object (here a geometry-nodes
+    translation); the default writes the stored data."""
+    from addon.blender.import_splats import export_object, import_file
+
+    bpy = bpy_empty
+    obj = import_file(bpy.context, testdata / "test64.ply")
+    tree = bpy.data.node_groups.new("shift", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    group_in, group_out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    move = tree.nodes.new("GeometryNodeTransform")
+    move.inputs["Translation"].default_value = (1.0, 2.0, 3.0)
+    tree.links.new(group_in.outputs[0], move.inputs["Geometry"])
+    tree.links.new(move.outputs["Geometry"], group_out.inputs[0])
+    obj.modifiers.new("shift", "NODES").node_group = tree
+    export_object(obj, tmp_path / "stored.ply")
+    export_object(obj, tmp_path / "evaluated.ply", evaluated=True)
+    src = formats.read(testdata / "test64.ply")
+    stored, evaluated = formats.read(tmp_path / "stored.ply"), formats.read(tmp_path / "evaluated.ply")
+    np.testing.assert_array_equal(stored.positions, src.positions)
+    # float32 addition of (1, 2, 3): results stay below 4 in magnitude, so one rounding is
+    # at most 2^-23; 2^-20 leaves room for Blender adding in another order
+    np.testing.assert_allclose(evaluated.positions, src.positions + np.float32([1, 2, 3]), atol=2.0**-20)
+    np.testing.assert_array_equal(evaluated.sh_rest, src.sh_rest)

@@ -47,9 +47,12 @@ def run(args) -> int:
     from ..blender.import_splats import import_file_with_report
 
     for path in args.files:
-        obj, report = import_file_with_report(
-            bpy.context, path, max_sh_degree=args.max_sh_degree, min_opacity=args.min_opacity,
-            max_count=args.max_count, axes=args.axes, bad=args.bad_values)
+        try:
+            obj, report = import_file_with_report(
+                bpy.context, path, max_sh_degree=args.max_sh_degree, min_opacity=args.min_opacity,
+                max_count=args.max_count, axes=args.axes, bad=args.bad_values)
+        except OSError as exc:  # e.g. permission denied: still one line naming the file
+            raise SplatFormatError(path, exc.strerror or str(exc)) from None
         extra = f"; {report.bad.summary()}" if report.bad.total else ""
         print(f"{path}: {len(obj.data.points)} of {report.count_in_file} splats, "
               f"SH degree {report.sh_degree_in_file} -> {_degree(obj)}{extra}")

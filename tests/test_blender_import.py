@@ -178,3 +178,12 @@ def test_progress_and_report(bpy_empty, testdata):
     assert seen == [0.5, 1.0]
     assert report.count_in_file == 64 and report.sh_degree_in_file == 3
     assert len(obj.data.points) == 64
+
+
+@pytest.mark.parametrize("name", ["guitar.compressed.ply", "guitar.splat", "guitar.spz", "test64.compressed.ply"])
+def test_every_format_imports_with_the_schema(bpy_empty, testdata, name):
+    from addon.blender.import_splats import import_file
+
+    obj = import_file(bpy_empty.context, testdata / name)
+    expected = formats.read(testdata / name)
+    _check_schema(bpy_empty, obj, expected, expected.sh_degree)

@@ -187,3 +187,14 @@ def test_every_format_imports_with_the_schema(bpy_empty, testdata, name):
     obj = import_file(bpy_empty.context, testdata / name)
     expected = formats.read(testdata / name)
     _check_schema(bpy_empty, obj, expected, expected.sh_degree)
+
+
+def test_import_from_edit_mode(bpy_empty, testdata):
+    """Dropping a file while editing a mesh: the importer leaves edit mode and imports."""
+    bpy = bpy_empty
+    bpy.ops.mesh.primitive_cube_add()
+    bpy.ops.object.mode_set(mode="EDIT")
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply")) == {"FINISHED"}
+    assert bpy.context.mode == "OBJECT"
+    assert bpy.context.view_layer.objects.active.name == "test64"
+    assert (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.pointclouds)) == (2, 1, 1)

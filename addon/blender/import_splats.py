@@ -57,6 +57,8 @@ def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, 
         progress(0.5)  # reading and building take about as long (bench/import_bench.py)
     if axes != "AUTO":
         splats.axes = axes
+    if context.mode != "OBJECT":  # Blender's convert operator, used to build it, needs object mode
+        bpy.ops.object.mode_set(mode="OBJECT")
     target = collection or context.collection or context.scene.collection
     obj = new_pointcloud_object(object_name(path), splats, target)
     try:

@@ -148,8 +148,8 @@ def _relink(obj, collection) -> None:
 
 
 def _convert_to_pointcloud(helper) -> bpy.types.PointCloud:
-    # The convert operator works on a selected object linked into the view layer;
-    # the caller removes the helper object afterwards, leaving the PointCloud datablock.
+    # The convert operator works on a selected object linked into the view layer, in
+    # object mode; the object then holds the PointCloud (new_pointcloud drops the object).
     bpy.context.scene.collection.objects.link(helper)
     with bpy.context.temp_override(active_object=helper, object=helper, selected_objects=[helper],
                                    selected_editable_objects=[helper]):

@@ -116,3 +116,36 @@ def test_failure_inside_blender_build_leaves_nothing(bpy_empty, testdata):
     with pytest.raises(ReferenceError):
         import_file(bpy.context, testdata / "test64.ply", collection=gone)
     assert _counts(bpy) == (0, 0, 0)
+
+
+def test_nan_and_zero_quaternions_by_policy(bpy_empty, tmp_path):
+    """NaN/Inf splats and zero quaternions are counted; the policy neutralises, drops or
+    refuses them, and a refusal leaves nothing behind."""
+    import numpy as np
+
+    from addon.blender.import_splats import import_file_with_report
+    from addon.core import formats
+    from addon.core.formats.synth import random_splats
+
+    splats = random_splats(20, 1, seed=5)
+    splats.positions[3, 1] = np.nan
+    splats.sh_rest[7, 2, 0] = np.inf
+    splats.rotations[11] = 0.0
+    path = tmp_path / "bad_values.ply"
+    formats.write(path, splats)
+    bpy = bpy_empty
+    obj, report = import_file_with_report(bpy.context, path, bad="fix")
+    assert (report.bad.nonfinite, report.bad.zero_quaternions) == (2, 1)
+    opacity = np.empty(80, np.float32)
+    obj.data.attributes["radiance:base"].data.foreach_get("color", opacity)
+    assert len(obj.data.points) == 20 and opacity[3::4][[3, 7]].tolist() == [0.0, 0.0]
+    obj, report = import_file_with_report(bpy.context, path, bad="drop")
+    assert len(obj.data.points) == 17
+    before = _counts(bpy)
+    with pytest.raises(SplatFormatError, match="bad_values.ply: 2 splats with NaN/Inf"):
+        import_file_with_report(bpy.context, path, bad="error")
+    assert _counts(bpy) == before
+    # the operator: a warning (not an error) when neutralising, an error when refusing
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(path), bad_values="fix") == {"FINISHED"}
+    with pytest.raises(RuntimeError, match="bad_values.ply: 2 splats with NaN/Inf"):
+        bpy.ops.import_scene.splatline_gaussians(filepath=str(path), bad_values="error")

@@ -175,7 +175,7 @@ def test_progress_and_report(bpy_empty, testdata):
 
     seen = []
     obj, report = import_file_with_report(bpy_empty.context, testdata / "test64.ply", progress=seen.append)
-    assert seen == [0.5, 1.0]
+    assert seen == [0.6, 1.0]
     assert report.count_in_file == 64 and report.sh_degree_in_file == 3
     assert len(obj.data.points) == 64
 

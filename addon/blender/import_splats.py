@@ -54,7 +54,7 @@ def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, 
     splats, report = read_for_import(path, max_sh_degree=max_sh_degree, min_opacity=min_opacity,
                                      max_count=max_count, bad=bad)
     if progress is not None:
-        progress(0.5)  # reading and building take about as long (bench/import_bench.py)
+        progress(0.6)  # reading is about 60% of an import (bench/import_bench.py, read column)
     if axes != "AUTO":
         splats.axes = axes
     if context.mode != "OBJECT":  # Blender's convert operator, used to build it, needs object mode

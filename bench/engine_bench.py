@@ -36,6 +36,7 @@ def _scene(bpy):
     from engine_scene import guitar_scene
 
     scene, _, _ = guitar_scene(bpy, ROOT.parent / "shared" / "testdata", [1, 2, 3], 64, 64, count=0)
+    scene.camera.animation_data_clear()  # every frame the same view, so rows compare
     return scene
 
 

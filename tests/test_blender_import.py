@@ -198,3 +198,16 @@ def test_import_from_edit_mode(bpy_empty, testdata):
     assert bpy.context.mode == "OBJECT"
     assert bpy.context.view_layer.objects.active.name == "test64"
     assert (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.pointclouds)) == (2, 1, 1)
+
+
+@pytest.mark.parametrize("shape", [(5, 3, 3), (3, 7, 3), (0, 4, 3), (4, 0, 3), (3000, 15, 3), (8, 5000, 3)])
+def test_swap01_matches_transpose(bpy_empty, shape):
+    from addon.blender.pointcloud import per_coefficient, swap01
+
+    a = np.random.default_rng(0).random(shape, dtype=np.float32)
+    out = swap01(a)
+    assert out.flags.c_contiguous and np.array_equal(out, a.transpose(1, 0, 2))
+    planes = per_coefficient(a)  # a contiguous (N, K, 3): copied into planes
+    assert planes.flags.c_contiguous and np.array_equal(planes, a.transpose(1, 0, 2))
+    view = out.transpose(1, 0, 2)  # already planes: no copy
+    assert np.shares_memory(per_coefficient(view), out)

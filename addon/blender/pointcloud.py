@@ -60,19 +60,36 @@ def _get(attributes, name, width, count) -> np.ndarray:
     return out.reshape(count, width) if width > 1 else out
 
 
-def per_coefficient(rest: np.ndarray, block: int = 2048) -> np.ndarray:
-    """(N, K, 3) higher SH -> (K, N, 3) with each rest[:, k] contiguous, as foreach_set needs.
+def swap01(a: np.ndarray, block: int = 4096) -> np.ndarray:
+    """C-contiguous float32 copy of an (A, B, 3) array with its first two axes swapped.
 
-    Zero-copy when the reader already stores coefficient planes. Otherwise a blocked
-    transpose: K strided gathers over the whole array would pull every cache line of it
-    K times (measured 0.5 s for 1M splats, degree 3, against 0.15 s blocked)."""
+    Each 3-float row moves as one 12-byte item, block by block along the long axis. A plain
+    strided transpose between (N, K, 3) and (K, N, 3), or K copies of one plane each, pull
+    every cache line K times: for 1M splats at degree 3 measured 0.43 s per plane, 0.23 s
+    blocked by floats, 0.09 s blocked by 12-byte items."""
+    if a.dtype != np.float32 or a.strides[2] != 4:
+        a = np.ascontiguousarray(a, np.float32)
+    item = np.dtype((np.void, 4 * a.shape[2]))
+    out = np.empty((a.shape[1], a.shape[0], a.shape[2]), np.float32)
+    if out.size == 0:
+        return out
+    src, dst = a.view(item)[..., 0], out.view(item)[..., 0]
+    if a.shape[0] >= a.shape[1]:
+        for i in range(0, a.shape[0], block):
+            np.copyto(dst[:, i:i + block], src[i:i + block].T)
+    else:
+        for i in range(0, a.shape[1], block):
+            np.copyto(dst[i:i + block], src[:, i:i + block].T)
+    return out
+
+
+def per_coefficient(rest: np.ndarray) -> np.ndarray:
+    """(N, K, 3) higher SH -> (K, N, 3) with each rest[:, k] contiguous, as foreach_set needs.
+    Zero-copy when the reader already stores coefficient planes (formats/ply.py does)."""
     planes = rest.transpose(1, 0, 2)
     if planes.flags.c_contiguous and planes.dtype == np.float32:
         return planes
-    out = np.empty(planes.shape, np.float32)
-    for i in range(0, rest.shape[0], block):
-        np.copyto(out[:, i:i + block], rest[i:i + block].transpose(1, 0, 2), casting="unsafe")
-    return out
+    return swap01(rest)
 
 
 def write_attributes(attributes, splats: SplatSet) -> None:
@@ -175,9 +192,10 @@ def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
     if n == 0:  # an empty PointCloud has no position attribute at all
         return SplatSet.allocate(0, degree, axes)
     base = _get(attributes, BASE, 4, n)
-    rest = np.empty((n, sh_coeff_count(degree), 3), np.float32)
-    for i in range(rest.shape[1]):
-        rest[:, i] = _get(attributes, sh_name(i), 3, n)
+    planes = np.empty((sh_coeff_count(degree), n, 3), np.float32)
+    for i in range(planes.shape[0]):
+        attributes[sh_name(i)].data.foreach_get("vector", planes[i].reshape(-1))
+    rest = swap01(planes)  # consumers (GPU uploads, effects) expect a contiguous (N, K, 3)
     return SplatSet(
         positions=_get(attributes, "position", 3, n),
         scales=_get(attributes, "scale", 3, n),

@@ -125,6 +125,16 @@ def test_world_colour_goes_under_the_splats_when_film_is_opaque(bpy_empty, tmp_p
     want = clear[..., :3] + (1.0 - clear[..., 3:]) * world
     np.testing.assert_allclose(opaque[..., :3], want, rtol=1e-6, atol=1e-7)
 
+    # An animated world colour is taken at the frame being rendered.
+    scene.world.keyframe_insert("color", frame=1)
+    scene.world.color = (0.5, 0.25, 0.0)
+    scene.world.keyframe_insert("color", frame=3)
+    scene.frame_start = scene.frame_end = 3
+    set_output(scene, "EXR", tmp_path / "anim_####")
+    bpy.ops.render.render(animation=True)
+    animated = read_exr_parts(tmp_path / "anim_0003.exr")["ViewLayer.Combined"]
+    np.testing.assert_allclose(animated[0, 0], [0.5, 0.25, 0.0, 1.0], rtol=1e-6)
+
 
 def _render_size(bpy, scene, tmp_path, name, engine):
     scene.render.engine = engine

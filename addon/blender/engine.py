@@ -122,8 +122,8 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         out = renderer.render(items, region_camera(full, region), settings.options())
         self._check()
         rgba = to_scene_linear(out.rgba)
-        if not r.film_transparent:
-            rgba = composite_over(rgba, _world_colour(scene))
+        if not r.film_transparent:  # the evaluated world: its colour may be animated
+            rgba = composite_over(rgba, _world_colour(depsgraph.scene_eval))
         self._write(depsgraph, region, rgba, blender_depth(out.depth))
 
     def _write(self, depsgraph, region, rgba, depth):

@@ -96,18 +96,32 @@ def test_noise_is_smooth_seeded_and_interpolates_the_lattice():
 def test_displace_hand_computed_and_continuous_in_time():
     s = make([[0.25, 1.5, -2.0], [4.0, 0.0, 1.0]])
     p = Displace(amplitude=0.3, frequency=2.0, speed=0.5, seed=9, amount=0.5)
-    t = 1.2
+    t = 2.6  # u = 1.3: layers 1 and 2, s = smoothstep(0.3) = 0.216
     out = evaluate_stack(s, [p], t)
     assert out.positions_changed
-    q = s.positions.astype(np.float64) * 2.0 + np.array([0.48, 0.6, 0.64]) * 0.5 * t
-    expect = []
-    for axis in range(3):
-        expect.append(noise.value_noise(q[:, 0], q[:, 1], q[:, 2], 9, channels=3)[axis])
-    np.testing.assert_allclose(out.splats.positions, s.positions + 0.15 * np.stack(expect, 1),
-                               atol=1e-5)
-    later = evaluate_stack(s, [p], t + 1e-4).splats.positions
-    assert np.abs(later - out.splats.positions).max() < 1e-3
+    q = s.positions.astype(np.float64) * 2.0
+    n1 = np.stack(noise.value_noise(q[:, 0], q[:, 1], q[:, 2], 9, 3, layer=1), 1)
+    n2 = np.stack(noise.value_noise(q[:, 0], q[:, 1], q[:, 2], 9, 3, layer=2), 1)
+    w = 0.3 * 0.3 * (3 - 2 * 0.3)
+    blend = ((1 - w) * n1 + w * n2) / np.sqrt((1 - w) ** 2 + w * w)
+    np.testing.assert_allclose(out.splats.positions, s.positions + 0.15 * blend, atol=1e-5)
+    # continuous in time, also across a layer boundary (u = 2 at t = 4)
+    for a, b in ((t, t + 1e-4), (4.0 - 1e-4, 4.0)):
+        pa = evaluate_stack(s, [p], a).splats.positions
+        pb = evaluate_stack(s, [p], b).splats.positions
+        assert np.abs(pa - pb).max() < 1e-3
     assert out.splats.opacities is s.opacities and out.splats.sh_dc is s.sh_dc
+
+
+def test_noise_field_memo_gives_the_same_bits_as_a_fresh_evaluation():
+    s = make(np.random.default_rng(1).normal(size=(100, 3)))
+    p = Displace(amplitude=0.2, speed=0.7, seed=4)
+    noise.FIELDS.clear()
+    fresh = evaluate_stack(s, [p], 3.3).splats.positions
+    memo = evaluate_stack(s, [p], 3.3).splats.positions  # now from the memo
+    np.testing.assert_array_equal(fresh, memo)
+    other = make(s.positions.copy())  # equal values, another array: evaluated again
+    np.testing.assert_array_equal(evaluate_stack(other, [p], 3.3).splats.positions, fresh)
 
 
 def test_explode_closed_form():

@@ -77,19 +77,40 @@ def _inside_weight(distance: np.ndarray, softness: float, invert: bool) -> np.nd
     if softness <= 0.0:
         w = (distance < 0.0).astype(np.float32)
     else:
-        w = np.clip(-distance / softness, 0.0, 1.0).astype(np.float32)
-        w = w * w * (3.0 - 2.0 * w)
-    return 1.0 - w if invert else w
+        w = distance * np.float32(-1.0 / softness)
+        np.clip(w, 0.0, 1.0, out=w)
+        w *= w * (np.float32(3.0) - np.float32(2.0) * w)
+    if invert:
+        w -= np.float32(1.0)
+        w *= np.float32(-1.0)
+    return w
 
 
 def box_distance(positions: np.ndarray, box: CropBox) -> np.ndarray:
-    q = np.abs(positions - np.asarray(box.center, np.float32)) - np.asarray(box.size, np.float32) / 2
-    outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
-    return outside + np.minimum(q.max(axis=1), 0.0)
+    """Signed distance to the box surface (negative inside), column by column."""
+    q = [np.abs(positions[:, i] - np.float32(box.center[i])) - np.float32(box.size[i] / 2)
+         for i in range(3)]
+    inside = np.maximum(np.maximum(q[0], q[1]), q[2])
+    np.minimum(inside, 0.0, out=inside)
+    outside = np.zeros_like(inside)
+    for c in q:
+        np.maximum(c, 0.0, out=c)
+        c *= c
+        outside += c
+    np.sqrt(outside, out=outside)
+    outside += inside
+    return outside
 
 
 def sphere_distance(positions: np.ndarray, sphere: CropSphere) -> np.ndarray:
-    return np.linalg.norm(positions - np.asarray(sphere.center, np.float32), axis=1) - sphere.radius
+    d = np.zeros(positions.shape[0], np.float32)
+    for i in range(3):
+        c = positions[:, i] - np.float32(sphere.center[i])
+        c *= c
+        d += c
+    np.sqrt(d, out=d)
+    d -= np.float32(sphere.radius)
+    return d
 
 
 def crop_weights(positions: np.ndarray, box: CropBox | None = None,

@@ -1,38 +1,54 @@
-"""Displace: move each splat by a seeded, smooth noise vector.
+"""Displace: move each splat by a seeded, smooth noise vector that evolves in time.
 
-The noise is sampled at the gizmo-local position times `frequency` (lattice cells per unit),
-and the field drifts through the capture at `speed` cells per second along a fixed
-direction, so the result is continuous in time and a pure function of t. The displacement
-is `amplitude` (object units) times the three noise channels, along the object's axes.
+The noise is sampled at the gizmo-local centre times `frequency` (lattice cells per unit).
+It evolves by blending independent noise layers: with u = speed * time, k = floor(u) and
+s = smoothstep(u - k), the field is (1 - s) N_k + s N_(k+1), divided by sqrt((1-s)^2 + s^2)
+so its spread stays constant. That is continuous (C1) in time and a pure function of t.
+The displacement is `amplitude` (object units) times the three channels, along the
+object's axes. Because the spatial sampling never moves, each layer is evaluated once per
+set of centres (noise.field memo): between layer changes a frame costs a blend.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import F32, EffectParams, local_columns
-from .noise import value_noise
-
-DRIFT = np.array([0.48, 0.6, 0.64])  # unit direction the field drifts along
+from .common import F32, EffectParams
+from .noise import field
 
 
 @dataclass
 class Displace(EffectParams):
     amplitude: float = 0.1
     frequency: float = 1.0
-    speed: float = 0.5
+    speed: float = 0.5   # noise layers per second
     seed: int = 0
 
 
+def layer_weights(speed: float, time: float) -> tuple[int, float, float]:
+    """(k, weight of layer k, weight of layer k+1) at this time."""
+    u = speed * time
+    k = math.floor(u)
+    s = u - k
+    s = s * s * (3.0 - 2.0 * s)
+    norm = math.sqrt((1.0 - s) ** 2 + s * s)
+    return k, (1.0 - s) / norm, s / norm
+
+
 def noise_vectors(positions: np.ndarray, p: Displace, time: float) -> list[np.ndarray]:
-    cols = local_columns(positions, p.frame)
-    f = F32(p.frequency)
-    shift = DRIFT * (p.speed * time)
-    for axis, col in enumerate(cols):
-        col *= f
-        col += F32(shift[axis])
-    return value_noise(cols[0], cols[1], cols[2], p.seed, channels=3)
+    k, w0, w1 = layer_weights(p.speed, time)
+    first = field(positions, p.frame, p.frequency, p.seed, 3, k)
+    if w1 == 0.0:
+        return [c * F32(w0) for c in first]
+    second = field(positions, p.frame, p.frequency, p.seed, 3, k + 1)
+    out = []
+    for a, b in zip(first, second):
+        c = a * F32(w0)
+        c += b * F32(w1)
+        out.append(c)
+    return out
 
 
 def apply(splats, p: Displace, time: float = 0.0):
@@ -42,6 +58,6 @@ def apply(splats, p: Displace, time: float = 0.0):
     positions = np.empty_like(splats.positions)
     gain = F32(p.amount * p.amplitude)
     for axis in range(3):
-        np.multiply(noise[axis], gain, out=noise[axis])
+        noise[axis] *= gain
         np.add(splats.positions[:, axis], noise[axis], out=positions[:, axis])
     return replace(splats, positions=positions)

@@ -12,8 +12,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import (F32, EffectParams, axis_angle_quats, frame_axis, frame_origin,
-                     per_splat_random, quat_multiply)
+from .common import (F32, EffectParams, frame_axis, frame_origin, join,
+                     per_splat_random, quat_multiply, split, unit_columns)
 
 MODES = ("CENTER", "DIRECTION")
 
@@ -30,24 +30,32 @@ class Explode(EffectParams):
     seed: int = 0
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.sqrt(np.einsum("ij,ij->i", v, v))
-    np.maximum(n, F32(1e-12), out=n)
-    v /= n[:, None]
-    return v
+def spin_axes(n: int, seed: int) -> list[np.ndarray]:
+    """Per-splat random unit spin axes (three columns), a pure function of (n, seed)."""
+    return unit_columns([c.copy() for c in per_splat_random(n, seed, 2)])
 
 
-def velocities(positions: np.ndarray, p: Explode) -> np.ndarray:
+def velocities(positions: np.ndarray, p: Explode) -> list[np.ndarray]:
+    """Three (N,) velocity components (object units per second)."""
     n = positions.shape[0]
     jitter = per_splat_random(n, p.seed, 1)
+    spread = F32(p.spread / np.sqrt(3.0))
     if p.mode == "CENTER":
-        d = _unit(positions - frame_origin(p.frame).astype(F32))
+        o = frame_origin(p.frame)
+        d = split(positions)
+        for i in range(3):
+            d[i] -= F32(o[i])
+        d = unit_columns(d)
     elif p.mode == "DIRECTION":
-        d = np.broadcast_to(frame_axis(p.frame).astype(F32), (n, 3))
+        axis = frame_axis(p.frame)
+        d = [np.full(n, axis[i], F32) for i in range(3)]
     else:
         raise ValueError(f"Explode mode {p.mode!r} is not one of {MODES}")
-    v = _unit(d + jitter * F32(p.spread / np.sqrt(3.0)))
-    v *= F32(p.strength)
+    for i in range(3):
+        d[i] += jitter[i] * spread
+    v = unit_columns(d)
+    for c in v:
+        c *= F32(p.strength)
     return v
 
 
@@ -56,15 +64,19 @@ def apply(splats, p: Explode, time: float = 0.0):
     if not p.active or tau == 0.0 or splats.count == 0:
         return splats
     v = velocities(splats.positions, p)
-    v *= F32(p.amount * tau)
     drop = frame_axis(p.frame) * (-0.5 * p.gravity * tau * tau * p.amount)
-    v += drop.astype(F32)
-    v += splats.positions
-    changes = {"positions": v}
+    start = split(splats.positions)
+    for i in range(3):
+        v[i] *= F32(p.amount * tau)
+        v[i] += F32(drop[i])
+        v[i] += start[i]
+    changes = {"positions": join(v)}
     if p.spin != 0.0:
-        axes = _unit(per_splat_random(splats.count, p.seed, 2).copy())
-        angle = np.full(splats.count, p.spin * tau * p.amount, F32)
-        changes["rotations"] = quat_multiply(axis_angle_quats(axes, angle), splats.rotations)
+        # every splat turns by the same angle, each about its own random axis
+        half = 0.5 * p.spin * tau * p.amount
+        turn = [np.full(splats.count, np.cos(half), F32)]
+        turn += [axis * F32(np.sin(half)) for axis in spin_axes(splats.count, p.seed)]
+        changes["rotations"] = quat_multiply(turn, splats.rotations)
     if p.fade > 0.0:
         keep = 1.0 - p.amount * (1.0 - np.exp(-p.fade * tau))
         changes["opacities"] = splats.opacities * F32(keep)

@@ -8,13 +8,13 @@ view-dependent sheen) are kept, and positions are never touched.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..sh import C0
 from .common import F32, EffectParams, local_columns
-from .noise import value_noise
+from .noise import field as noise_field
 
 FIELDS = ("HEIGHT", "DISTANCE", "NOISE")
 MODES = ("MIX", "MULTIPLY", "ADD")
@@ -34,27 +34,35 @@ class Grade(EffectParams):
 def field_values(positions: np.ndarray, p: Grade) -> np.ndarray:
     if p.field == "HEIGHT":
         return local_columns(positions, p.frame, (2,))[0]
+    if p.field == "NOISE":
+        value = noise_field(positions, p.frame, p.frequency, p.seed)[0] * F32(0.5)
+        value += F32(0.5)
+        return value
     x, y, z = local_columns(positions, p.frame)
     if p.field == "DISTANCE":
         x *= x
         x += y * y
         x += z * z
         return np.sqrt(x, out=x)
-    if p.field == "NOISE":
-        f = F32(p.frequency)
-        value = value_noise(x * f, y * f, z * f, p.seed)[0]
-        value += F32(1.0)
-        value *= F32(0.5)
-        return value
     raise ValueError(f"Grade field {p.field!r} is not one of {FIELDS}")
 
 
 def gradient(x: np.ndarray, stops) -> list[np.ndarray]:
-    """Per-channel piecewise-linear colour at x; stops are (position, rgb), any order."""
+    """Per-channel piecewise-linear colour at x (float32 columns), constant beyond the end
+    stops, as np.interp; stops are (position, rgb) in any order."""
     ordered = sorted(stops, key=lambda s: s[0])
-    xs = np.array([s[0] for s in ordered], np.float64)
-    rgb = np.array([s[1] for s in ordered], np.float64)
-    return [np.interp(x, xs, rgb[:, c]).astype(F32) for c in range(3)]
+    out = [np.full(x.shape[0], ordered[0][1][c], F32) for c in range(3)]
+    for (x0, c0), (x1, c1) in zip(ordered, ordered[1:]):
+        if x1 > x0:
+            w = x - F32(x0)
+            w *= F32(1.0 / (x1 - x0))
+            np.clip(w, 0.0, 1.0, out=w)
+        else:  # two stops at one position: a hard step
+            w = (x >= F32(x0)).astype(F32)
+        for c in range(3):
+            if c1[c] != c0[c]:
+                out[c] += w * F32(c1[c] - c0[c])
+    return out
 
 
 def apply(splats, p: Grade, time: float = 0.0):
@@ -66,7 +74,7 @@ def apply(splats, p: Grade, time: float = 0.0):
     x -= F32(p.low)
     x *= F32(1.0 / (p.high - p.low) if p.high != p.low else 1e12)
     np.clip(x, 0.0, 1.0, out=x)
-    a = F32(p.amount)
+    gain = F32(p.amount / C0)
     dc = np.empty_like(splats.sh_dc)
     for c, g in enumerate(gradient(x, p.stops)):
         base = splats.sh_dc[:, c]
@@ -76,10 +84,12 @@ def apply(splats, p: Grade, time: float = 0.0):
             colour = base * F32(C0)
             colour += F32(0.5)
             if p.mode == "MIX":
-                delta = g - colour
+                g -= colour
+                delta = g
             else:
                 g -= F32(1.0)
-                delta = colour * g
-        delta *= a / F32(C0)
+                colour *= g
+                delta = colour
+        delta *= gain
         np.add(base, delta, out=dc[:, c])
     return replace(splats, sh_dc=dc)

@@ -70,17 +70,36 @@ def _lerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
 
 
 def slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
-    dot = np.einsum("ij,ij->i", q0, q1)
-    q1 = np.where(dot[:, None] < 0, -q1, q1)
-    dot = np.abs(dot).clip(0.0, 1.0)
+    """Shortest-arc slerp of (N, 4) quaternions, column by column; nlerp where they nearly
+    coincide (sin(theta) < 1e-5), where slerp's weights lose precision."""
+    dot = q0[:, 0] * q1[:, 0]
+    for i in range(1, 4):
+        dot += q0[:, i] * q1[:, i]
+    sign = np.where(dot < 0, F32(-1.0), F32(1.0))
+    np.abs(dot, out=dot)
+    np.clip(dot, 0.0, 1.0, out=dot)
     theta = np.arccos(dot)
     sin = np.sin(theta)
     near = sin < 1e-5
-    safe = np.where(near, 1.0, sin)
-    w0 = np.where(near, 1.0 - t, np.sin((1.0 - t) * theta) / safe).astype(F32)
-    w1 = np.where(near, t, np.sin(t * theta) / safe).astype(F32)
-    out = q0 * w0[:, None] + q1 * w1[:, None]
-    out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), F32(1e-12))
+    sin[near] = 1.0
+    w0 = np.sin(theta * F32(1.0 - t))
+    w0 /= sin
+    w1 = np.sin(theta * F32(t))
+    w1 /= sin
+    w0[near] = 1.0 - t
+    w1[near] = t
+    w1 *= sign
+    out = np.empty_like(q0)
+    norm = np.zeros_like(dot)
+    for i in range(4):
+        col = q0[:, i] * w0
+        col += q1[:, i] * w1
+        out[:, i] = col
+        norm += col * col
+    np.sqrt(norm, out=norm)
+    np.maximum(norm, F32(1e-12), out=norm)
+    for i in range(4):
+        out[:, i] /= norm
     return out
 
 
@@ -92,9 +111,17 @@ def _pad_rest(rest: np.ndarray, k: int) -> np.ndarray:
     return out
 
 
+def _take(s: SplatSet, index: np.ndarray) -> SplatSet:
+    """s.subset(index), or s itself when index is every splat in order (no copy)."""
+    if len(index) == s.count and (s.count == 0 or (index[0] == 0 and index[-1] == s.count - 1
+                                                     and np.array_equal(index, np.arange(s.count)))):
+        return s
+    return s.subset(index)
+
+
 def blend(source: SplatSet, target: SplatSet, pairing: Pairing, t: float) -> SplatSet:
     k = sh_coeff_count(max(source.sh_degree, target.sh_degree))
-    a, b = source.subset(pairing.source), target.subset(pairing.target)
+    a, b = _take(source, pairing.source), _take(target, pairing.target)
     parts = [SplatSet(
         positions=_lerp(a.positions, b.positions, t), scales=_lerp(a.scales, b.scales, t),
         rotations=slerp(a.rotations, b.rotations, t),

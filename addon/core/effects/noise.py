@@ -1,39 +1,54 @@
 """Seeded, smooth 3D value noise in plain numpy, periodic every PERIOD lattice cells.
 
-Each lattice cell stores its 8 corner values side by side (32 bytes), so one gather per
-channel fetches all corners; the trilinear weights (cubic-smoothed, so the noise is C1)
-are shared by every channel. Output is in [-1, 1], a pure function of (point, seed, channel).
+Each lattice cell stores its 8 corner values side by side (one 32-byte row), so one gather
+per channel fetches all corners; the trilinear weights (cubic-smoothed, so the noise is C1)
+are shared by every channel. Output is in [-1, 1], a pure function of (point, seed, channel,
+layer); layers are independent fields (Displace blends consecutive layers over time).
+
+`field` memoizes the noise at a set of splat centres (the same positions array, gizmo frame,
+frequency, seed and layer give the same values), so a field that does not move costs a
+lookup on later frames. The memo is bounded and never changes a result.
 """
 from __future__ import annotations
 
+import threading
+import weakref
+from collections import OrderedDict
+
 import numpy as np
 
-from .common import F32
+from .common import F32, local_columns
 
 PERIOD = 32          # lattice cells before the pattern repeats (a power of two)
 _MASK = PERIOD - 1
-_CORNER = np.dtype((np.void, 32))
-_TABLES: dict = {}   # pure cache: (seed, channel) -> corner table
+_MAX_TABLES = 48     # 1 MB each
+_TABLES: OrderedDict = OrderedDict()   # pure cache: (seed, stream) -> corner table
+_LOCK = threading.Lock()
 
 
-def corner_table(seed: int, channel: int) -> np.ndarray:
-    key = (seed, channel)
+def corner_table(seed: int, channel: int, layer: int = 0) -> np.ndarray:
+    key = (seed, channel, layer)
     table = _TABLES.get(key)
     if table is None:
-        rng = np.random.default_rng([seed & 0xFFFFFFFF, 7919 + channel])
+        stream = (layer * 8 + channel) % (1 << 40)
+        rng = np.random.default_rng([seed & 0xFFFFFFFF, 7919 + stream])
         lattice = rng.uniform(-1.0, 1.0, (PERIOD,) * 3).astype(F32)
         corners = np.empty((PERIOD,) * 3 + (8,), F32)
         for k in range(8):
             dx, dy, dz = k >> 2, (k >> 1) & 1, k & 1
             corners[..., k] = np.roll(lattice, (-dx, -dy, -dz), axis=(0, 1, 2))
-        table = corners.reshape(-1, 8).view(_CORNER).ravel()
-        _TABLES[key] = table
+        table = np.ascontiguousarray(corners.reshape(-1, 8))
+        table.flags.writeable = False
+        with _LOCK:
+            _TABLES[key] = table
+            while len(_TABLES) > _MAX_TABLES:
+                _TABLES.popitem(last=False)
     return table
 
 
 def lattice_value(seed: int, channel: int, i: int, j: int, k: int) -> float:
     """The noise value at an integer lattice point (for tests)."""
-    table = corner_table(seed, channel).view(F32).reshape(-1, 8)
+    table = corner_table(seed, channel)
     return float(table[((i & _MASK) * PERIOD + (j & _MASK)) * PERIOD + (k & _MASK), 0])
 
 
@@ -42,7 +57,7 @@ def _cell(v: np.ndarray):
     base = np.floor(v)
     frac = v - base
     frac *= frac * (F32(3.0) - F32(2.0) * frac)
-    index = base.astype(np.int32)
+    index = base.astype(np.intp)  # take() wants intp indices; int32 would be converted
     index &= _MASK
     return index, frac
 
@@ -64,7 +79,7 @@ def _weights(sx, sy, sz) -> np.ndarray:
 
 
 def value_noise(x: np.ndarray, y: np.ndarray, z: np.ndarray, seed: int,
-                channels: int = 1) -> list[np.ndarray]:
+                channels: int = 1, layer: int = 0) -> list[np.ndarray]:
     """`channels` independent noise values at the points (x, y, z) in lattice units."""
     x, y, z = (np.asarray(c, F32) for c in (x, y, z))
     ix, sx = _cell(x)
@@ -77,6 +92,55 @@ def value_noise(x: np.ndarray, y: np.ndarray, z: np.ndarray, seed: int,
     weights = _weights(sx, sy, sz)
     out = []
     for c in range(channels):
-        corners = np.take(corner_table(seed, c), index).view(F32).reshape(-1, 8)
+        corners = np.take(corner_table(seed, c, layer), index, axis=0)  # (N, 8), one row per splat
         out.append(np.einsum("kn,nk->n", weights, corners))
     return out
+
+
+class FieldCache:
+    """Noise values at splat centres, keyed by the positions array itself (held weakly),
+    the gizmo frame, frequency, seed, layer and channel count. Values are read-only."""
+
+    def __init__(self, size: int = 8):
+        self.size = size
+        self.entries: OrderedDict = OrderedDict()
+        self.lock = threading.Lock()
+
+    def get(self, positions: np.ndarray, frame: np.ndarray, frequency: float, seed: int,
+            channels: int, layer: int = 0) -> list[np.ndarray]:
+        key = (id(positions), np.asarray(frame, np.float64).tobytes(), float(frequency), seed,
+               channels, layer)
+        with self.lock:
+            hit = self.entries.get(key)
+            if hit is not None and hit[0]() is positions:
+                self.entries.move_to_end(key)
+                return hit[1]
+        values = evaluate_field(positions, frame, frequency, seed, channels, layer)
+        for v in values:
+            v.flags.writeable = False
+        with self.lock:
+            self.entries[key] = (weakref.ref(positions), values)
+            while len(self.entries) > self.size:
+                self.entries.popitem(last=False)
+        return values
+
+    def clear(self) -> None:
+        with self.lock:
+            self.entries.clear()
+
+
+def evaluate_field(positions, frame, frequency, seed, channels, layer=0) -> list[np.ndarray]:
+    """Noise at the gizmo-local centres times frequency (no memo)."""
+    cols = local_columns(positions, frame)
+    f = F32(frequency)
+    for col in cols:
+        col *= f
+    return value_noise(cols[0], cols[1], cols[2], seed, channels, layer)
+
+
+FIELDS = FieldCache()
+
+
+def field(positions, frame, frequency, seed, channels=1, layer=0) -> list[np.ndarray]:
+    """Memoized noise at splat centres: read-only (N,) float32 arrays, one per channel."""
+    return FIELDS.get(positions, frame, frequency, seed, channels, layer)

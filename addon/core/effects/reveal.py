@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, local_columns, smoothstep01
-from .noise import value_noise
+from .common import F32, EffectParams, add_rows, local_columns, scale_rows, smoothstep01
+from .noise import field as noise_field
 
 SHAPES = ("PLANE", "SPHERE", "NOISE")
 
@@ -35,18 +35,16 @@ class Reveal(EffectParams):
 def field_values(positions: np.ndarray, p: Reveal) -> np.ndarray:
     if p.shape == "PLANE":
         return local_columns(positions, p.frame, (2,))[0]
+    if p.shape == "NOISE":
+        value = noise_field(positions, p.frame, p.frequency, p.seed)[0] * F32(0.5)
+        value += F32(0.5)
+        return value
     x, y, z = local_columns(positions, p.frame)
     if p.shape == "SPHERE":
         x *= x
         x += y * y
         x += z * z
         return np.sqrt(x, out=x)
-    if p.shape == "NOISE":
-        f = F32(p.frequency)
-        value = value_noise(x * f, y * f, z * f, p.seed)[0]
-        value += F32(1.0)
-        value *= F32(0.5)
-        return value
     raise ValueError(f"Reveal shape {p.shape!r} is not one of {SHAPES}")
 
 
@@ -82,7 +80,7 @@ def apply(splats, p: Reveal, time: float = 0.0):
         shrink = hidden
         shrink *= F32(-p.amount * p.shrink)
         shrink += F32(1.0)
-        changes["scales"] = splats.scales * shrink[:, None]
+        changes["scales"] = scale_rows(splats.scales, shrink)
     if glow is not None:
-        changes["sh_dc"] = splats.sh_dc + glow[:, None] * np.asarray(p.glow_color, F32)
+        changes["sh_dc"] = add_rows(splats.sh_dc, p.glow_color, glow)
     return replace(splats, **changes)

@@ -10,8 +10,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import (F32, EffectParams, axis_angle_quats, frame_axis, frame_origin,
-                     local_columns, quat_multiply)
+from .common import (F32, EffectParams, frame_axis, frame_origin, join, local_columns,
+                     rotate_quats_about, split)
 
 
 @dataclass
@@ -38,34 +38,44 @@ def angles(positions: np.ndarray, p: Twist) -> np.ndarray:
     return h
 
 
-def rotate_about_axis(positions, origin, axis, angle) -> np.ndarray:
+def rotate_about_axis(positions, origin, axis, cos, sin) -> np.ndarray:
     """Rodrigues' rotation of the centres about the line (origin, unit axis)."""
     o = origin.astype(F32)
     a = axis.astype(F32)
-    cos, sin = np.cos(angle), np.sin(angle)
-    v = positions - o
-    along = v @ a                      # (N,)
-    out = np.empty_like(positions)
-    cross = (a[1] * v[:, 2] - a[2] * v[:, 1], a[2] * v[:, 0] - a[0] * v[:, 2],
-             a[0] * v[:, 1] - a[1] * v[:, 0])
-    one_minus = F32(1.0) - cos
-    one_minus *= along
+    v = split(positions)
     for i in range(3):
-        col = v[:, i] * cos
-        col += cross[i] * sin
-        col += one_minus * a[i]
+        v[i] -= o[i]
+    along = v[0] * a[0]
+    along += v[1] * a[1]
+    along += v[2] * a[2]
+    along *= F32(1.0) - cos
+    cross = [a[1] * v[2] - a[2] * v[1], a[2] * v[0] - a[0] * v[2], a[0] * v[1] - a[1] * v[0]]
+    for i in range(3):
+        col = v[i]
+        col *= cos
+        cross[i] *= sin
+        col += cross[i]
+        col += along * a[i]
         col += o[i]
-        out[:, i] = col
-    return out
+    return join(v)
 
 
 def apply(splats, p: Twist, time: float = 0.0):
     if not p.active or (p.twist == 0.0 and p.swirl == 0.0) or splats.count == 0:
         return splats
-    angle = angles(splats.positions, p)
+    half = angles(splats.positions, p)
+    half *= F32(0.5)
+    sin_half = np.sin(half)
+    cos_half = np.cos(half, out=half)
+    # full-angle cos/sin from the half angle: two transcendental passes instead of four
+    sin = sin_half * cos_half
+    sin *= F32(2.0)
+    cos = sin_half * sin_half
+    cos *= F32(-2.0)
+    cos += F32(1.0)
     origin, axis = frame_origin(p.frame), frame_axis(p.frame)
     return replace(
         splats,
-        positions=rotate_about_axis(splats.positions, origin, axis, angle),
-        rotations=quat_multiply(axis_angle_quats(axis, angle), splats.rotations),
+        positions=rotate_about_axis(splats.positions, origin, axis, cos, sin),
+        rotations=rotate_quats_about(axis, cos_half, sin_half, splats.rotations),
     )

@@ -83,5 +83,6 @@ def far_to_near(depth: np.ndarray, bits: int = 16) -> np.ndarray:
     ftype = np.float32 if bits == 16 else np.float64
     k = np.subtract(ftype(hi), d, dtype=ftype)
     k *= ftype(scale)
-    np.clip(k, 0, top - 1, out=k)
+    if bits == 32:  # float32 rounding stays below top (16 bits); float64 may not, clip
+        np.clip(k, 0, top - 1, out=k)
     return radix_argsort(k.astype(np.uint16 if bits == 16 else np.uint32))

@@ -42,7 +42,7 @@ class Packed:
     base: np.ndarray  # (N, BASE_TEXELS, 4) float32, slot column filled at concatenation
     sh: np.ndarray    # (N, sh_texels(degree), 4) float32
     degree: int
-    positions: np.ndarray  # (N, 3) float32, for sorting
+    positions_soa: np.ndarray  # (3, N) float32, one row per axis, for sorting
 
     @property
     def count(self) -> int:
@@ -50,7 +50,7 @@ class Packed:
 
     @property
     def nbytes(self) -> int:
-        return self.base.nbytes + self.sh.nbytes
+        return self.base.nbytes + self.sh.nbytes + self.positions_soa.nbytes
 
 
 def pack(splats: SplatSet, max_degree: int = 3) -> Packed:
@@ -71,7 +71,7 @@ def pack(splats: SplatSet, max_degree: int = 3) -> Packed:
     sh = np.zeros((n, sh_texels(degree), 4), np.float32)
     if k:
         sh.reshape(n, -1)[:, :3 * k] = splats.sh_rest[:, :k].reshape(n, 3 * k)
-    return Packed(base, sh, degree, base[:, 0, :3])
+    return Packed(base, sh, degree, np.ascontiguousarray(splats.positions.T, np.float32))
 
 
 def concatenate(parts: list[Packed]) -> tuple[np.ndarray, np.ndarray, int]:

@@ -54,8 +54,11 @@ class Stats:
     sort_seconds: float = 0.0    # last finished sort (cull + keys + radix)
     upload_seconds: float = 0.0  # last texture upload of any kind
     draw_seconds: float = 0.0    # last draw call (CPU side)
-    sorts: int = 0
-    uploads: int = 0
+    sorts: int = 0               # orders computed and uploaded
+    uploads: int = 0             # splat data texture uploads
+    table_uploads: int = 0       # per-object table uploads (matrices, display options)
+    frame_sort: float = 0.0      # this draw's sort time on the drawing thread
+    frame_upload: float = 0.0    # this draw's packing + texture uploads (data, order, table)
 
 
 @dataclass
@@ -75,9 +78,14 @@ class _State:
 
 
 def _identity(item: RenderItem):
-    if item.key is not None and item.key[-1] is not None:
-        return ("key", item.key)
-    return ("id", id(item.splats))
+    """Cache identity: the item's key and its SplatSet object.
+
+    Effects may change colours or opacities under an unchanged key (the key names the
+    base geometry), so the key alone is not enough; the draw handler reuses the same
+    SplatSet object while an object's data is unchanged, which is what makes a hit.
+    The cache entry holds the SplatSet, so its id cannot be reused while cached.
+    """
+    return (item.key, id(item.splats))
 
 
 class ViewportRenderer:
@@ -98,16 +106,16 @@ class ViewportRenderer:
     def _packed(self, item: RenderItem, display: ItemDisplay) -> packing.Packed:
         ident = (_identity(item), min(item.sh_degree, display.max_sh_degree))
         entry = self.state.entries.get(ident)
-        if entry is None or (ident[0][0] == "id" and entry.splats is not item.splats):
+        if entry is None or entry.splats is not item.splats:
             entry = _Entry(ident, item.splats, packing.pack(item.splats, ident[1]))
         return entry
 
     def _update_data(self, items, displays) -> bool:
+        start = time.perf_counter()
         entries = [self._packed(i, d) for i, d in zip(items, displays)]
         token = tuple(e.identity for e in entries)
         if token == self.state.data_token and self.gpu.base is not None:
             return False
-        start = time.perf_counter()
         parts = [e.packed for e in entries]
         base, sh, stride = packing.concatenate(parts)
         self.gpu.set_data(base, sh, stride)
@@ -117,6 +125,7 @@ class ViewportRenderer:
         self.stats.total = sum(p.count for p in parts)
         self.stats.cpu_bytes = sum(p.nbytes for p in parts)
         self.stats.upload_seconds = time.perf_counter() - start
+        self.stats.frame_upload += self.stats.upload_seconds
         self.stats.uploads += 1
         return True
 
@@ -140,13 +149,14 @@ class ViewportRenderer:
                 self._upload_order(done)
         if self._same_view(token, self.state.sorted_token):
             return
-        inputs = [SortInput(self.state.entries[e].packed.positions, m, d.cull, d.dilation)
+        inputs = [SortInput(self.state.entries[e].packed.positions_soa, m, d.cull, d.dilation)
                   for e, m, d in zip(self.state.data_token, l2c, displays)]
         bits = max(d.key_bits for d in displays)
         have_order = self.state.sorted_token is not None
         if settings.sync_sort or self.worker is None or not have_order:
             result = visible_order(inputs, projection, near, far, bits)
             result.token = token
+            self.stats.frame_sort += result.seconds
             self._upload_order(result)
         elif not self._same_view(token, self.state.pending_token):
             self.state.pending_token = token
@@ -156,6 +166,7 @@ class ViewportRenderer:
         start = time.perf_counter()
         self.gpu.set_order(result.order)
         self.stats.upload_seconds = time.perf_counter() - start
+        self.stats.frame_upload += self.stats.upload_seconds
         self.stats.sort_seconds = result.seconds
         self.stats.drawn = int(result.order.size)
         self.stats.sorts += 1
@@ -168,13 +179,29 @@ class ViewportRenderer:
     # -- draw ---------------------------------------------------------------
     def draw(self, items: list[RenderItem], view_matrix, projection_matrix, viewport_size,
              settings: DrawSettings = DrawSettings(), displays: list[ItemDisplay] | None = None) -> None:
-        from .gpu_draw import SplatGPU, object_rows, view_constants
-
-        items = [i for i in items if i.splats.count]
-        if not items:
-            self.stats.total = self.stats.drawn = 0
+        """Draw into the bound framebuffer (the caller sets the depth test)."""
+        const = self.prepare(items, view_matrix, projection_matrix, viewport_size, settings, displays)
+        if const is None:
             return
-        displays = list(displays) if displays is not None else [ItemDisplay()] * len(items)
+        start = time.perf_counter()
+        self.gpu.draw(const)
+        self.stats.draw_seconds = time.perf_counter() - start
+
+    def prepare(self, items, view_matrix, projection_matrix, viewport_size,
+                settings: DrawSettings = DrawSettings(), displays=None) -> dict | None:
+        """Everything before the draw call: data, order and object table on the GPU.
+
+        Returns the draw's push constants, or None when there is nothing to draw.
+        """
+        from .gpu_draw import SplatGPU, view_constants
+
+        self.stats.frame_sort = self.stats.frame_upload = 0.0
+        keep = [k for k, i in enumerate(items) if i.splats.count]
+        if not keep:
+            self.stats.total = self.stats.drawn = 0
+            return None
+        displays = [displays[k] for k in keep] if displays is not None else [ItemDisplay()] * len(keep)
+        items = [items[k] for k in keep]
         if self.gpu is None:
             self.gpu = SplatGPU()
         width, height = int(viewport_size[0]), int(viewport_size[1])
@@ -187,10 +214,8 @@ class ViewportRenderer:
         near, far = const["frame"][2], const["frame"][3]
         self._update_order(items, displays, l2c, projection_matrix, near, far, settings)
         self._update_objects(items, displays, l2c, bool(const["flags"][0]))
-        start = time.perf_counter()
-        self.gpu.draw(const)
-        self.stats.draw_seconds = time.perf_counter() - start
         self.stats.gpu_bytes = self.gpu.nbytes
+        return const
 
     def _update_objects(self, items, displays, l2c, ortho) -> None:
         from .gpu_draw import object_rows
@@ -203,5 +228,8 @@ class ViewportRenderer:
         table = np.concatenate(rows)
         if self.state.objects_token is not None and np.array_equal(self.state.objects_token, table):
             return  # still camera, same transforms: nothing to upload
+        start = time.perf_counter()
         self.gpu.set_objects(table)
+        self.stats.frame_upload += time.perf_counter() - start
         self.state.objects_token = table
+        self.stats.table_uploads += 1

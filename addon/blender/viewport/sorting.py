@@ -18,10 +18,16 @@ from ...core.sort import far_to_near
 class SortInput:
     """One object's part of the sort: positions and the matrices that place them."""
 
-    positions: np.ndarray    # (N, 3) float32, object space
+    positions_soa: np.ndarray    # (3, N) float32, object space, one row per axis
     local_to_camera: np.ndarray  # (4, 4) float64 (Blender camera: looks down -z)
     cull: bool = True
-    dilation: float = 0.2    # frustum grown by this fraction of its half-size
+    dilation: float = 0.2        # frustum grown by this fraction of its half-size
+
+    @staticmethod
+    def of(positions: np.ndarray, local_to_camera, cull: bool = True, dilation: float = 0.2):
+        """From (N, 3) positions (copied to the row-per-axis layout)."""
+        soa = np.ascontiguousarray(np.asarray(positions, np.float32).T)
+        return SortInput(soa, local_to_camera, cull, dilation)
 
 
 @dataclass
@@ -31,10 +37,38 @@ class SortResult:
     token: object = None     # what the caller asked for (view + data versions)
 
 
-def _clip_rows(m: np.ndarray, projection: np.ndarray) -> np.ndarray:
-    """(4, 4): local -> (x_clip, y_clip, w_clip, view depth)."""
+def _rows(m: np.ndarray, projection: np.ndarray, cull: bool) -> np.ndarray:
+    """Affine rows (k, 4) taking local points to: view depth [, x_clip, y_clip [, w_clip]].
+
+    w_clip is left out when it equals the view depth (any perspective projection).
+    """
+    depth = -m[2]
+    if not cull:
+        return depth[None]
     pm = projection @ m
-    return np.stack([pm[0], pm[1], pm[3], -m[2]])
+    if np.allclose(projection[3], (0.0, 0.0, -1.0, 0.0)):
+        return np.stack([depth, pm[0], pm[1]])
+    return np.stack([depth, pm[0], pm[1], pm[3]])
+
+
+def _keep(part: SortInput, projection, near, far):
+    """(depths, indices or None for all) of one object's splats that survive culling."""
+    rows = _rows(np.asarray(part.local_to_camera, np.float64), projection, part.cull)
+    # rows of q are contiguous: every test below is one streaming pass
+    q = rows[:, :3].astype(np.float32) @ part.positions_soa
+    q += rows[:, 3:].astype(np.float32)
+    depth = q[0]
+    keep = depth > near
+    keep &= depth <= far
+    if part.cull:
+        x, y = np.abs(q[1], out=q[1]), np.abs(q[2], out=q[2])
+        np.maximum(x, y, out=x)
+        w = q[3] if q.shape[0] == 4 else depth
+        keep &= x <= w * np.float32(1.0 + part.dilation)
+    if keep.all():
+        return depth, None
+    idx = np.flatnonzero(keep).astype(np.int32)  # half the bytes for the gathers that follow
+    return depth[idx], idx
 
 
 def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, far: float,
@@ -42,37 +76,28 @@ def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, 
     """Indices into the concatenation of every input's splats, farthest first.
 
     Kept: centres with near < depth <= far and, when culling, inside the frustum
-    grown by `dilation` (splats poking in from outside keep their centre outside).
+    grown by `dilation` (|x|, |y| <= (1 + dilation) w in clip space).
     """
     start = time.perf_counter()
     depths, indices = [], []
     offset = 0
     projection = np.asarray(projection, np.float64)
     for part in inputs:
-        n = part.positions.shape[0]
-        rows = _clip_rows(np.asarray(part.local_to_camera, np.float64), projection)
-        a = rows[:, :3].T.astype(np.float32)
-        if not part.cull:
-            a, b = a[:, 3:], np.float32(rows[3, 3])
-        else:
-            b = rows[:, 3].astype(np.float32)
-        q = part.positions @ a
-        q += b
-        depth = q[:, -1]
-        keep = (depth > near) & (depth <= far)
-        if part.cull:
-            lim = np.abs(q[:, 2]) * np.float32(1.0 + part.dilation)
-            keep &= (np.abs(q[:, 0]) <= lim) & (np.abs(q[:, 1]) <= lim)
-        idx = np.flatnonzero(keep)
-        depths.append(depth[idx])
-        indices.append(idx + offset if offset else idx)
+        depth, idx = _keep(part, projection, near, far)
+        n = part.positions_soa.shape[1]
+        if idx is None and len(inputs) > 1:
+            idx = np.arange(n, dtype=np.int32)
+        depths.append(depth)
+        indices.append(idx if idx is None or not offset else idx + np.int32(offset))
         offset += n
     if not depths:
         return SortResult(np.zeros(0, np.uint32), time.perf_counter() - start)
     depth = np.concatenate(depths) if len(depths) > 1 else depths[0]
-    index = np.concatenate(indices) if len(indices) > 1 else indices[0]
-    order = index[far_to_near(depth, bits)].astype(np.uint32)
-    return SortResult(order, time.perf_counter() - start)
+    order = far_to_near(depth, bits)
+    if indices[0] is not None or len(indices) > 1:
+        index = np.concatenate(indices) if len(indices) > 1 else indices[0]
+        order = index[order]
+    return SortResult(order.astype(np.uint32), time.perf_counter() - start)
 
 
 class SortWorker:

@@ -1,0 +1,171 @@
+"""Viewport caching, invalidation and reload with real bpy (GPUOffScreen for drawing)."""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from addon.core.scene import RenderItem
+from viewport_scene import blob, camera_for, draw_offscreen, psnr
+
+
+@pytest.fixture(scope="module")
+def gpu_ready(_bpy_registered):
+    from addon.blender.viewport.headless import ensure_gpu
+
+    ensure_gpu()
+    return True
+
+
+def _items():
+    a = RenderItem(blob(300, 1, seed=1, centre=(0, 0, 0), spread=0.3), key=("a", 1))
+    b = RenderItem(blob(200, 0, seed=2, centre=(0.2, 0, 0), spread=0.3), key=("b", 1))
+    return [a, b]
+
+
+def _orbit(camera, degrees):
+    from addon.core.camera import look_at
+
+    t = np.radians(degrees)
+    eye = np.array([np.sin(t) * 1.5, -np.cos(t) * 1.5, 0.4])
+    return replace(camera, world_to_camera=look_at(eye, (0, 0, 0)))
+
+
+def test_still_camera_costs_no_sort_and_no_upload(gpu_ready):
+    from addon.blender.viewport import ViewportRenderer
+
+    items, cam = _items(), _orbit(camera_for((0, 0, 0), 64, 48), 0)
+    r = ViewportRenderer()
+    draw_offscreen(items, cam, renderer=r)
+    before = (r.stats.sorts, r.stats.uploads, r.stats.table_uploads)
+    assert before == (1, 1, 1)
+    draw_offscreen([replace(i) for i in items], cam, renderer=r)  # new RenderItems, same data
+    assert (r.stats.sorts, r.stats.uploads, r.stats.table_uploads) == before
+    draw_offscreen(items, _orbit(cam, 10), renderer=r)  # the view moved: sort, no data upload
+    assert (r.stats.sorts, r.stats.uploads) == (2, 1)
+    moved = [replace(items[0], world=np.diag([1.0, 1.0, 1.0, 1.0]) + np.eye(4, k=3) * 0.1), items[1]]
+    draw_offscreen(moved, _orbit(cam, 10), renderer=r)  # transform only: matrix table, no data
+    assert (r.stats.uploads, r.stats.table_uploads) == (1, 3)
+    changed = [replace(items[0], key=("a", 2)), items[1]]  # a new geometry version
+    draw_offscreen(changed, _orbit(cam, 10), renderer=r)
+    assert r.stats.uploads == 2
+
+
+def test_background_sort_draws_the_last_order_then_catches_up(gpu_ready):
+    from addon.blender.viewport import DrawSettings, ViewportRenderer
+
+    items, cam = _items(), camera_for((0, 0, 0), 64, 48)
+    r = ViewportRenderer(worker=True)
+    worker = r.worker
+    try:
+        lazy = DrawSettings(sync_sort=False)
+        draw_offscreen(items, _orbit(cam, 0), settings=lazy, renderer=r)  # no order yet: inline
+        assert r.stats.sorts == 1
+        draw_offscreen(items, _orbit(cam, 90), settings=lazy, renderer=r)  # queued, old order drawn
+        deadline = time.time() + 20
+        while r.sorting and time.time() < deadline:
+            time.sleep(0.01)
+        img, _ = draw_offscreen(items, _orbit(cam, 90), settings=lazy, renderer=r)  # picks it up
+        assert r.stats.sorts == 2
+        exact, _ = draw_offscreen(items, _orbit(cam, 90))
+        assert psnr(img, exact) == float("inf")
+    finally:
+        r.close()
+    assert not worker.alive and worker._thread not in threading.enumerate()
+
+
+def _splat_object(bpy, name, splats):
+    from addon.blender.pointcloud import new_pointcloud
+
+    obj = bpy.data.objects.new(name, new_pointcloud(name, splats))
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def _translate_modifier(bpy, obj):
+    group = bpy.data.node_groups.new("shift", "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    gin, gout = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    move = group.nodes.new("GeometryNodeTransform")
+    group.links.new(gin.outputs[0], move.inputs["Geometry"])
+    group.links.new(move.outputs["Geometry"], gout.inputs[0])
+    move.inputs["Translation"].default_value = (1.0, 0.0, 0.0)
+    obj.modifiers.new("shift", "NODES").node_group = group
+    return move
+
+
+def test_scene_items_follow_depsgraph_updates(bpy_empty):
+    """The registered drawer's cache, fed by the real depsgraph_update_post handler."""
+    from addon.blender import viewport
+
+    bpy = bpy_empty
+    splats = blob(50, 0, seed=3, centre=(0, 0, 0), spread=0.2)
+    obj = _splat_object(bpy, "cap", splats)
+    move = _translate_modifier(bpy, obj)
+    cache = viewport.drawer().items
+    bpy.context.view_layer.update()
+    items, displays = cache.collect(bpy.context)
+    assert len(items) == 1 and displays[0].key_bits == 16
+    assert np.allclose(items[0].splats.positions, splats.positions + [1, 0, 0], atol=1e-6)
+    key = items[0].key
+
+    obj.location = (0.0, 2.0, 0.0)  # transform only: same data, new matrix
+    bpy.context.view_layer.update()
+    items, _ = cache.collect(bpy.context)
+    assert items[0].key == key and items[0].world[1, 3] == pytest.approx(2.0)
+
+    move.inputs["Translation"].default_value = (0.0, 0.0, 3.0)  # the modifier changes the geometry
+    bpy.context.view_layer.update()
+    items, _ = cache.collect(bpy.context)
+    assert items[0].key != key
+    assert np.allclose(items[0].splats.positions, splats.positions + [0, 0, 3], atol=1e-6)
+
+    obj.hide_set(True)
+    assert cache.collect(bpy.context) == ([], [])
+
+
+def test_display_settings_reach_the_drawing(bpy_empty):
+    from addon.blender.viewport.scene_items import SceneItems
+
+    bpy = bpy_empty
+    obj = _splat_object(bpy, "cap", blob(10, 0, seed=4, centre=(0, 0, 0), spread=0.2))
+    d = obj.splatline.display
+    d.mode, d.splat_scale, d.max_sh_degree, d.sort_key_bits = "OPAQUE", 2.0, 1, "32"
+    d.show_sh_only, d.frustum_culling, d.cull_dilation = True, False, 0.5
+    bpy.context.view_layer.update()
+    _, displays = SceneItems().collect(bpy.context)
+    assert displays[0].mode == "OPAQUE" and displays[0].splat_scale == 2.0
+    assert displays[0].max_sh_degree == 1 and displays[0].key_bits == 32
+    assert displays[0].sh_only and not displays[0].cull and displays[0].dilation == 0.5
+
+
+def test_register_unregister_three_times_leaves_nothing(_bpy_registered):
+    import bpy
+
+    from addon import register, unregister
+    from addon.blender import viewport
+    from addon.blender.viewport import handler
+
+    drawers = []
+    unregister()  # the session fixture registered it
+    try:
+        for _ in range(3):
+            register()
+            drawers.append(viewport.drawer())
+            assert any(t.name == "splatline-sort" for t in threading.enumerate())
+            unregister()
+            assert viewport.drawer() is None
+            assert not any(t.name.startswith("splatline") for t in threading.enumerate())
+            assert handler._on_depsgraph not in bpy.app.handlers.depsgraph_update_post
+            assert handler._on_frame not in bpy.app.handlers.frame_change_post
+            assert not bpy.app.timers.is_registered(handler._redraw_timer)
+            assert not hasattr(bpy.types, "SPLATLINE_PT_viewport_stats")
+    finally:
+        register()
+    for old in drawers:  # every handle was removed: removing it again is refused
+        assert old._handle is None
+    assert len({id(d) for d in drawers}) == 3

@@ -1,0 +1,89 @@
+"""CPU side of the viewport: radix order, culling, the global order, the sort worker (no bpy)."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from addon.blender.viewport.matrices import projection_matrix
+from addon.blender.viewport.sorting import SortInput, SortWorker, visible_order
+from addon.core.camera import look_at, simple_camera
+from addon.core.sort import depth_keys, far_to_near, radix_argsort
+
+
+def test_radix_argsort_is_a_stable_sort():
+    rng = np.random.default_rng(0)
+    for dtype, top in ((np.uint16, 1 << 16), (np.uint32, 1 << 32)):
+        keys = rng.integers(0, top, 20000, dtype=np.uint64).astype(dtype)
+        keys[::7] = keys[3]  # plenty of ties
+        assert np.array_equal(radix_argsort(keys), np.argsort(keys, kind="stable"))
+    with pytest.raises(ValueError):
+        radix_argsort(np.zeros(3, np.int64))
+
+
+@pytest.mark.parametrize("bits", [16, 32])
+def test_far_to_near_matches_depth_keys(bits):
+    rng = np.random.default_rng(1)
+    depth = rng.uniform(5.0, 9.0, 5000).astype(np.float32)
+    order = far_to_near(depth, bits)
+    assert np.all(np.diff(depth[order].astype(np.float64)) <= 4.0 / (2 ** bits - 2) * 1.01)
+    assert np.array_equal(order, np.argsort(depth_keys(depth, bits), kind="stable"))
+
+
+def _camera():
+    return simple_camera(200, 100, 60.0, look_at((0, -10, 0), (0, 0, 0)), near=0.5, far=40.0)
+
+
+def test_culling_and_dilation():
+    cam = _camera()
+    half_w = np.tan(np.radians(30.0)) * 10.0  # half-width of the view at the origin's depth
+    pts = np.array([[0, 0, 0], [1.1 * half_w, 0, 0], [1.5 * half_w, 0, 0], [0, -9.8, 0],
+                    [0, 40.0, 0], [0, -9.0, 0.0]], np.float32)
+    proj = projection_matrix(cam)
+    tight = visible_order([SortInput.of(pts, cam.world_to_camera, True, 0.0)], proj, cam.near, cam.far)
+    loose = visible_order([SortInput.of(pts, cam.world_to_camera, True, 0.2)], proj, cam.near, cam.far)
+    off = visible_order([SortInput.of(pts, cam.world_to_camera, False)], proj, cam.near, cam.far)
+    # 3: depth 0.2 < near; 4: depth 50 > far
+    assert sorted(tight.order) == [0, 5]
+    assert sorted(loose.order) == [0, 1, 5]
+    assert sorted(off.order) == [0, 1, 2, 5]
+
+
+def test_objects_interleave_in_one_order():
+    """Two objects (one translated) sorted together, farthest first, global indices."""
+    cam = _camera()
+    a = np.array([[0, 0, 0], [0, 4, 0]], np.float32)       # depths 10, 14
+    b = np.array([[0, 0, 0], [0, 2, 0]], np.float32)       # + (0, 1, 0): depths 11, 13
+    world_b = np.eye(4)
+    world_b[1, 3] = 1.0
+    inputs = [SortInput.of(a, cam.world_to_camera), SortInput.of(b, cam.world_to_camera @ world_b)]
+    result = visible_order(inputs, projection_matrix(cam), cam.near, cam.far, 16)
+    assert list(result.order) == [1, 3, 2, 0]
+
+
+def test_worker_returns_the_latest_request():
+    cam = _camera()
+    rng = np.random.default_rng(2)
+    pts = rng.normal(0, 2, (50000, 3)).astype(np.float32)
+    proj = projection_matrix(cam)
+    done = []
+    worker = SortWorker(on_done=lambda: done.append(1))
+    try:
+        views = [look_at((np.sin(t) * 10, -np.cos(t) * 10, 1), (0, 0, 0)) for t in (0.0, 0.5, 1.0)]
+        for i, v in enumerate(views):
+            worker.request(i, [SortInput.of(pts, v)], proj, cam.near, cam.far, 16)
+        deadline = time.time() + 20
+        result = None
+        while time.time() < deadline:
+            result = worker.take() or result
+            if result is not None and result.token == 2 and worker.idle:
+                break
+            time.sleep(0.005)
+        assert result is not None and result.token == 2
+        expect = visible_order([SortInput.of(pts, views[2])], proj, cam.near, cam.far, 16)
+        assert np.array_equal(result.order, expect.order)
+        assert done
+    finally:
+        worker.stop()
+    assert not worker.alive

@@ -146,3 +146,18 @@ def test_gizmo_empty_transform_drives_the_field(bpy_empty):
     assert (opac[5] == opac[10]).all() and (opac[20] == opac[25]).all()
     # splats below the gizmo's plane are shown: raising the Empty shows more of them
     assert opac[10].sum() < opac[15].sum() < opac[20].sum()
+
+
+def test_show_toggle_is_animatable_and_hides_the_object_from_collect_items(bpy_empty):
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats())
+    look = obj.splatline.look
+    look.keyframe_insert("visible", frame=10)
+    look.visible = False
+    look.keyframe_insert("visible", frame=20)
+    shown = {f: len(items_at(bpy, f)) for f in FRAMES}
+    assert shown == {5: 1, 10: 1, 15: 1, 20: 0, 25: 0}
+    from addon.blender.evaluate import item_for
+
+    hidden = item_for(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+    assert hidden.opacity_scale == 0.0  # a direct item_for (the viewport's path) draws nothing

@@ -23,7 +23,8 @@ def build_scene(bpy):
     """Every effect type at once, time-dependent and keyframed, under a keyframed gizmo."""
     capture = add_object("capture", grid_splats(n_side=5, seed=3))
     other = add_object("other", grid_splats(n_side=4, seed=4), location=(0.3, 0.0, 0.2))
-    other.hide_render = True
+    other.splatline.look.visible = False  # a morph target that does not show itself
+    _keys(other, "location", [(1, (0.3, 0.0, 0.2)), (100, (1.0, 0.5, 0.0))])
     gizmo = bpy.data.objects.new("gizmo", None)
     bpy.context.scene.collection.objects.link(gizmo)
     _keys(gizmo, "location", [(1, (0, 0, -1)), (100, (0, 0, 1))])
@@ -57,7 +58,7 @@ def test_frame_57_is_the_same_however_we_get_there(bpy_empty, tmp_path):
     bpy = bpy_empty
     build_scene(bpy)
     first = state(bpy, FRAME)
-    assert len(first) == 2
+    assert len(first) == 1, "the morph target is evaluated but not shown"
     assert state(bpy, FRAME - 1) != first, "the scene must change from frame to frame"
     for frame in range(1, 61):                 # play forwards through 57
         bpy.context.scene.frame_set(frame)
@@ -75,15 +76,24 @@ def test_frame_57_is_the_same_however_we_get_there(bpy_empty, tmp_path):
     assert state(bpy, FRAME) == first, "a fresh load (another farm node) sees the same frame"
 
 
-def test_render_frame_57_alone_equals_it_inside_an_animation(bpy_empty, tmp_path):
+def test_render_frame_57_alone_equals_it_inside_an_animation(bpy_empty, tmp_path, monkeypatch):
     from engine_scene import add_camera, read_exr_parts, set_output, setup_render
+
+    from addon.blender import engine
 
     bpy = bpy_empty
     build_scene(bpy)
     add_camera(bpy, location=(0.0, -6.0, 1.0))
+    rendered = {}
+
+    def spy(depsgraph, collect=engine.collect_items):
+        items = collect(depsgraph)
+        rendered.setdefault(depsgraph.scene.frame_current, []).append([snapshot(i) for i in items])
+        return items
     scene = setup_render(bpy, 64, 48)
     set_output(scene, "EXR", tmp_path / "seq" / "frame_####")
     scene.frame_start, scene.frame_end = FRAME - 2, FRAME + 1
+    monkeypatch.setattr(engine, "collect_items", spy)
     bpy.ops.render.render(animation=True)
     for frame in (90, 20):                      # scrub elsewhere, then render 57 alone
         scene.frame_set(frame)
@@ -96,3 +106,5 @@ def test_render_frame_57_alone_equals_it_inside_an_animation(bpy_empty, tmp_path
     assert alone[..., 3].max() > 0.5, "the splats must be in view"
     assert np.abs(before - in_sequence).max() > 1e-3, "neighbouring frames differ"
     assert alone.tobytes() == in_sequence.tobytes()
+    # the render's own depsgraph sees what the viewport's sees (the animated morph target too)
+    assert rendered[FRAME][0] == rendered[FRAME][1] == state(bpy, FRAME)

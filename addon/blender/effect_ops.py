@@ -182,7 +182,7 @@ class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         look = context.object.splatline.look
-        for name in ("opacity", "size", "tint", "exposure", "saturation", "hue", "max_sh_degree"):
+        for name in ("visible", "opacity", "size", "tint", "exposure", "saturation", "hue", "max_sh_degree"):
             layout.prop(look, name)
 
 

@@ -108,7 +108,10 @@ class Effect(bpy.types.PropertyGroup):
     range_high: FloatProperty(name="High", default=1.0, update=tag_eval, description="Field value of the high colour")
     # morph
     target: PointerProperty(name="Target", type=bpy.types.Object, poll=_is_other_splat_object,
-                            update=tag_eval, description="Splat object to morph into (its own data)")
+                            update=tag_eval,
+                            description="Splat object to morph into (its own data, not its effects). "
+                                        "To keep it from showing, untick its Look > Show rather than "
+                                        "hiding it, so the render still evaluates its animation")
 
 
 classes = (Effect,)

@@ -208,14 +208,20 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     positions_key = (name, base_key, time, moving) if result.positions_changed else (name, base_key)
     return RenderItem(
         splats=replace(result.splats), world=world, splat_scale=float(look.size),
-        opacity_scale=float(look.opacity), sh_degree=int(look.max_sh_degree),
+        opacity_scale=float(look.opacity) if look.visible else 0.0, sh_degree=int(look.max_sh_degree),
         color_matrix=core_look.color_matrix(tuple(look.tint), look.exposure, look.saturation,
                                             look.hue),
         key=key, positions_key=positions_key)
 
 
+def shown(obj_eval) -> bool:
+    """False for objects whose Look > Show is off (evaluated, e.g. as morph targets, not drawn)."""
+    look = getattr(getattr(obj_eval, "splatline", None), "look", None)
+    return bool(getattr(look, "visible", True))
+
+
 def collect_items(depsgraph) -> list[RenderItem]:
-    return [item_for(obj, depsgraph) for obj in splat_objects(depsgraph)]
+    return [item_for(obj, depsgraph) for obj in splat_objects(depsgraph) if shown(obj)]
 
 
 @bpy.app.handlers.persistent

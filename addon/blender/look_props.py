@@ -30,6 +30,11 @@ def _crop_props(prefix, what):
 
 
 class LookSettings(bpy.types.PropertyGroup):
+    visible: BoolProperty(name="Show", default=True, update=tag_eval,
+                          description="Draw and render this object's splats. Untick (rather than "
+                                      "hiding the object) for a morph target that should not show: "
+                                      "a hidden object is not evaluated by the render, so its "
+                                      "animation would not follow")
     opacity: FloatProperty(name="Opacity", default=1.0, min=0.0, soft_max=1.0, max=10.0,
                            update=tag_eval, description="Multiplies every splat's opacity")
     size: FloatProperty(name="Splat Size", default=1.0, min=0.0, soft_max=4.0, update=tag_eval,

@@ -111,3 +111,26 @@ def test_move_and_remove_keep_keyframes_with_their_effect(bpy_empty):
         assert bpy.ops.splatline.effect_duplicate() == {"FINISHED"}
     assert paths() == ["splatline.effects[0].progress"]
     assert [e.type for e in obj.splatline.effects] == ["REVEAL", "REVEAL"]
+
+
+def test_hidden_animated_morph_target_follows_its_keyframes(bpy_empty):
+    """A hidden object is not evaluated by the depsgraph (its copy goes stale): its
+    keyframed transform is evaluated at the frame instead, so every depsgraph agrees."""
+    bpy = bpy_empty
+    src = add_object("source", grid_splats(seed=1))
+    tgt_splats = grid_splats(n_side=3, seed=2)
+    tgt = add_object("target", tgt_splats)
+    tgt.keyframe_insert("location", frame=1)
+    tgt.location = (4.0, 0.0, 0.0)
+    tgt.keyframe_insert("location", frame=11)
+    for curve in tgt.animation_data.action.layers[0].strips[0].channelbag(tgt.animation_data.action_slot).fcurves:
+        for key in curve.keyframe_points:
+            key.interpolation = "LINEAR"
+    tgt.hide_viewport = tgt.hide_render = True
+    effect = _add(bpy, src, "MORPH")
+    effect.target, effect.amount = tgt, 1.0
+    items_at(bpy, 1)
+    morphed = {i.key[0]: i for i in items_at(bpy, 6)}
+    assert list(morphed) == ["source"]
+    np.testing.assert_allclose(morphed["source"].splats.positions, tgt_splats.positions + [2.0, 0, 0],
+                               atol=1e-5)

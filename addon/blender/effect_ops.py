@@ -11,28 +11,10 @@ import bpy
 from bpy.props import EnumProperty
 
 from . import evaluate
+from .effect_params import channel_fcurves as _channel_fcurves
 from .effect_props import FIELDS, TYPES
 
 _PATH = re.compile(r"^splatline\.effects\[(\d+)\]")
-
-
-def _channel_fcurves(obj):
-    """Every F-curve of obj's action (layered actions of Blender 4.4+) and its drivers."""
-    anim = obj.animation_data
-    if anim is None:
-        return []
-    curves = list(anim.drivers)
-    action = anim.action
-    if action is not None:
-        if getattr(action, "is_action_layered", False):
-            for layer in action.layers:
-                for strip in layer.strips:
-                    bag = strip.channelbag(anim.action_slot) if anim.action_slot else None
-                    if bag is not None:
-                        curves.extend(bag.fcurves)
-        elif hasattr(action, "fcurves"):
-            curves.extend(action.fcurves)
-    return curves
 
 
 def remap_effect_curves(obj, mapping: dict) -> None:

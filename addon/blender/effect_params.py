@@ -26,9 +26,77 @@ def evaluated(obj, depsgraph):
         return obj
 
 
+def shown_in(obj, depsgraph) -> bool:
+    """Whether the depsgraph evaluates obj (hidden objects keep a stale evaluated copy)."""
+    name = obj.original.name_full
+    return any(o.original.name_full == name for o in depsgraph.objects)
+
+
+def world_matrix(obj, depsgraph) -> np.ndarray:
+    """obj's world matrix at the depsgraph's frame. An object the depsgraph does not hold
+    (hidden) has no evaluated copy: its matrix is rebuilt from its stored transform and
+    parents (constraints and the animation of hidden objects are not evaluated)."""
+    if shown_in(obj, depsgraph):
+        return np.array(evaluated(obj, depsgraph).matrix_world, np.float64)
+    local = basis_at(obj, depsgraph.scene_eval.frame_float)
+    if obj.parent is None:
+        return local
+    return world_matrix(obj.parent, depsgraph) @ np.array(obj.matrix_parent_inverse, np.float64) @ local
+
+
+def channel_fcurves(obj):
+    """Every F-curve of obj's action (layered actions of Blender 4.4+) and its drivers."""
+    anim = obj.animation_data
+    if anim is None:
+        return []
+    curves = list(anim.drivers)
+    action = anim.action
+    if action is not None:
+        if getattr(action, "is_action_layered", False):
+            for layer in action.layers:
+                for strip in layer.strips:
+                    bag = strip.channelbag(anim.action_slot) if anim.action_slot else None
+                    if bag is not None:
+                        curves.extend(bag.fcurves)
+        elif hasattr(action, "fcurves"):
+            curves.extend(action.fcurves)
+    return curves
+
+
+def _transform_curves(obj) -> dict:
+    """{(data_path, index): F-curve} of obj's own transform channels."""
+    wanted = {"location", "rotation_euler", "rotation_quaternion", "scale"}
+    return {(c.data_path, c.array_index): c for c in channel_fcurves(obj)
+            if c.data_path in wanted and not c.mute}
+
+
+def basis_at(obj, frame: float) -> np.ndarray:
+    """obj's local matrix at `frame`: its keyframed location/rotation/scale evaluated there
+    (un-keyed channels keep their stored values). For objects no depsgraph evaluates."""
+    from mathutils import Euler, Matrix, Quaternion, Vector
+
+    curves = _transform_curves(obj)
+
+    def channel(path, current):
+        return [curves[(path, i)].evaluate(frame) if (path, i) in curves else v
+                for i, v in enumerate(current)]
+
+    location = Vector(channel("location", obj.location))
+    scale = channel("scale", obj.scale)
+    if obj.rotation_mode == "QUATERNION":
+        rotation = Quaternion(channel("rotation_quaternion", obj.rotation_quaternion)).normalized()
+    elif obj.rotation_mode == "AXIS_ANGLE":
+        angle, *axis = obj.rotation_axis_angle
+        rotation = Quaternion(Vector(axis), angle)
+    else:
+        rotation = Euler(channel("rotation_euler", obj.rotation_euler), obj.rotation_mode).to_quaternion()
+    matrix = Matrix.LocRotScale(location, rotation, Vector(scale))
+    return np.array(matrix, np.float64)
+
+
 def gizmo_frame(effect, world: np.ndarray, depsgraph) -> np.ndarray:
     if effect.gizmo is not None:
-        target = np.array(evaluated(effect.gizmo, depsgraph).matrix_world, np.float64)
+        target = world_matrix(effect.gizmo, depsgraph)
     else:
         target = np.eye(4)
         target[:3, 3] = world[:3, 3]

@@ -5,9 +5,10 @@
 // gl_InstanceID is the draw position (farthest first); order_tex maps it to the splat.
 // Everything is camera-relative: t = cam_from_local * (p - eye), eye split hi + lo.
 
-vec4 fetch(sampler2D tex, int width, int texel)
+// Every data texture is sizes.x texels wide (packing.WIDTH).
+vec4 fetch(sampler2D tex, int texel)
 {
-    return texelFetch(tex, ivec2(texel % width, texel / width), 0);
+    return texelFetch(tex, ivec2(texel % sizes.x, texel / sizes.x), 0);
 }
 
 void cull_vertex()
@@ -26,11 +27,11 @@ vec3 sh_colour(int splat, vec3 dir, int degree, vec3 dc, bool sh_only)
     vec3 rest[15];
     for (int k = 0; k < 15; k++) rest[k] = vec3(0.0);
     int coeffs = (degree + 1) * (degree + 1) - 1;
-    if (coeffs > 0 && sizes.z > 0) {
+    if (coeffs > 0 && sizes.y > 0) {
         vec4 tx[12];
         int used = (3 * coeffs + 3) / 4;
         for (int j = 0; j < 12; j++) {
-            tx[j] = j < used ? fetch(sh_tex, sizes.y, splat * sizes.z + j) : vec4(0.0);
+            tx[j] = j < used ? fetch(sh_tex, splat * sizes.y + j) : vec4(0.0);
         }
         for (int k = 0; k < coeffs; k++) {
             int c = 3 * k;
@@ -50,12 +51,11 @@ vec3 srgb_to_linear(vec3 c)
 
 void main()
 {
-    float fi = fetch(order_tex, sizes.w, gl_InstanceID).x;
-    int splat = int(fi);
-    vec4 p = fetch(base_tex, sizes.x, 4 * splat);
-    vec4 q = fetch(base_tex, sizes.x, 4 * splat + 1);
-    vec4 s = fetch(base_tex, sizes.x, 4 * splat + 2);
-    vec4 dc = fetch(base_tex, sizes.x, 4 * splat + 3);
+    int splat = int(fetch(order_tex, gl_InstanceID).x);
+    vec4 p = fetch(pos_tex, splat);
+    vec4 q = fetch(shape_tex, 3 * splat);
+    vec4 s = fetch(shape_tex, 3 * splat + 1);
+    vec4 dc = fetch(shape_tex, 3 * splat + 2);
     int row = int(s.w) * 9;
     vec4 o0 = texelFetch(object_tex, ivec2(row, 0), 0);
     vec4 o1 = texelFetch(object_tex, ivec2(row + 1, 0), 0);

@@ -35,23 +35,29 @@ def _orbit(camera, degrees):
 
 
 def test_still_camera_costs_no_sort_and_no_upload(gpu_ready):
+    """Counts sorts and texture uploads (3 data textures: pos, shape, sh) per change."""
     from addon.blender.viewport import ViewportRenderer
 
     items, cam = _items(), _orbit(camera_for((0, 0, 0), 64, 48), 0)
     r = ViewportRenderer()
     draw_offscreen(items, cam, renderer=r)
     before = (r.stats.sorts, r.stats.uploads, r.stats.table_uploads)
-    assert before == (1, 1, 1)
+    assert before == (1, 3, 1)
     draw_offscreen([replace(i) for i in items], cam, renderer=r)  # new RenderItems, same data
     assert (r.stats.sorts, r.stats.uploads, r.stats.table_uploads) == before
     draw_offscreen(items, _orbit(cam, 10), renderer=r)  # the view moved: sort, no data upload
-    assert (r.stats.sorts, r.stats.uploads) == (2, 1)
-    moved = [replace(items[0], world=np.diag([1.0, 1.0, 1.0, 1.0]) + np.eye(4, k=3) * 0.1), items[1]]
+    assert (r.stats.sorts, r.stats.uploads) == (2, 3)
+    moved = [replace(items[0], world=np.eye(4) + np.eye(4, k=3) * 0.1), items[1]]
     draw_offscreen(moved, _orbit(cam, 10), renderer=r)  # transform only: matrix table, no data
-    assert (r.stats.uploads, r.stats.table_uploads) == (1, 3)
-    changed = [replace(items[0], key=("a", 2)), items[1]]  # a new geometry version
-    draw_offscreen(changed, _orbit(cam, 10), renderer=r)
-    assert r.stats.uploads == 2
+    assert (r.stats.uploads, r.stats.table_uploads) == (3, 3)
+    faded = replace(moved[0], splats=replace(items[0].splats, opacities=items[0].splats.opacities * 0.5))
+    draw_offscreen([faded, items[1]], _orbit(cam, 10), renderer=r)  # opacity effect: pos only, no sort
+    assert (r.stats.sorts, r.stats.uploads) == (3, 4)
+    changed = [replace(faded, key=("a", 2)), items[1]]  # a new geometry version: every texture
+    img, _ = draw_offscreen(changed, _orbit(cam, 10), renderer=r)
+    assert r.stats.uploads == 7 and r.stats.sorts == 4
+    fresh, _ = draw_offscreen(changed, _orbit(cam, 10))
+    assert psnr(img, fresh) == float("inf")  # the cached path draws what a fresh renderer does
 
 
 def test_background_sort_draws_the_last_order_then_catches_up(gpu_ready):

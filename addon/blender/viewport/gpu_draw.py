@@ -12,7 +12,7 @@ import numpy as np
 import gpu
 from gpu_extras.batch import batch_for_shader
 
-from .packing import OBJECT_TEXELS, texture_shape
+from .packing import OBJECT_TEXELS, WIDTH, padded
 
 SHADERS = pathlib.Path(__file__).resolve().parents[3] / "shaders"
 
@@ -25,9 +25,9 @@ def create_shader():
     info = gpu.types.GPUShaderCreateInfo()
     for name in ("focal_centre", "jac_bounds", "frame", "proj_z", "misc"):
         info.push_constant("VEC4", name)
-    info.push_constant("IVEC4", "sizes")  # base width, sh width, sh texels/splat, order width
+    info.push_constant("IVEC4", "sizes")  # texture width, sh texels per splat, 0, 0
     info.push_constant("IVEC4", "flags")  # ortho, antialiased, opacity-aware extent, linear out
-    for slot, name in enumerate(("base_tex", "sh_tex", "order_tex", "object_tex")):
+    for slot, name in enumerate(("pos_tex", "shape_tex", "sh_tex", "order_tex", "object_tex")):
         info.sampler(slot, "FLOAT_2D", name)
     info.vertex_in(0, "VEC2", "corner")
     iface = gpu.types.GPUStageInterfaceInfo("splatline_splat")
@@ -46,22 +46,16 @@ def create_shader():
     return shader
 
 
-def float_texture(flat: np.ndarray, channels: int) -> tuple[object, int]:
-    """An RGBA32F (channels 4) or R32F (channels 1) 2D texture from float32 texels.
-
-    flat is (texels * channels,) already padded to whole rows of the layout
-    texture_shape gives; returns the texture and its width.
-    """
+def float_texture(flat: np.ndarray, channels: int = 4, width: int = WIDTH):
+    """An RGBA32F (channels 4) or R32F (channels 1) texture `width` texels wide from a
+    float32 array already padded to whole rows (packing.padded)."""
+    flat = np.ascontiguousarray(flat, np.float32).reshape(-1)
     texels = flat.size // channels
-    width, height = texture_shape(texels)
-    if width * height != texels:
-        padded = np.zeros(width * height * channels, np.float32)
-        padded[:flat.size] = flat
-        flat = padded
-    flat = np.ascontiguousarray(flat, np.float32)
-    buf = gpu.types.Buffer("FLOAT", flat.size, flat)
+    if texels % width:
+        raise ValueError(f"{texels} texels are not whole rows of {width}")
+    buf = gpu.types.Buffer("FLOAT", flat.size, flat)  # wraps the array's memory, no copy
     fmt = "RGBA32F" if channels == 4 else "R32F"
-    return gpu.types.GPUTexture((width, height), format=fmt, data=buf), width
+    return gpu.types.GPUTexture((width, texels // width), format=fmt, data=buf)
 
 
 def texture_bytes(texture, channels: int) -> int:
@@ -71,52 +65,48 @@ def texture_bytes(texture, channels: int) -> int:
 class SplatGPU:
     """GPU resources of the current splat data: shader, quad batch, textures."""
 
+    CHANNELS = {"pos": 4, "shape": 4, "sh": 4, "order": 1, "objects": 4}
+
     def __init__(self):
         self.shader = create_shader()
         corners = ((-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
         self.batch = batch_for_shader(self.shader, "TRI_STRIP", {"corner": corners})
-        self.base = self.sh = self.order = self.objects = None
-        self.widths = [1, 1, 0, 1]  # base, sh, sh stride, order
+        self.textures: dict = {}
+        self.sh_stride = 0
         self.order_count = 0
 
-    def set_data(self, base: np.ndarray, sh: np.ndarray, sh_stride: int) -> None:
-        self.base, self.widths[0] = float_texture(base.reshape(-1), 4)
-        self.sh, self.widths[1] = float_texture(sh.reshape(-1) if sh.size else np.zeros(4, np.float32), 4)
-        self.widths[2] = sh_stride
+    def set_texture(self, name: str, flat: np.ndarray) -> None:
+        self.textures[name] = float_texture(flat, self.CHANNELS[name])
 
     def set_order(self, order: np.ndarray) -> None:
         if order.size and int(order.max()) >= 1 << 24:
             raise ValueError("more than 2^24 splats: indices no longer exact in an R32F texture")
-        values = order.astype(np.float32) if order.size else np.zeros(1, np.float32)
-        self.order, self.widths[3] = float_texture(values, 1)
+        values = np.zeros(padded(max(1, order.size)), np.float32)
+        values[:order.size] = order
+        self.textures["order"] = float_texture(values, 1)
         self.order_count = int(order.size)
 
     def set_objects(self, table: np.ndarray) -> None:
-        self.objects, _ = float_texture(table.reshape(-1), 4)
+        self.textures["objects"] = float_texture(table, 4, table.shape[0])
 
     @property
     def nbytes(self) -> int:
-        total = 0
-        for tex, ch in ((self.base, 4), (self.sh, 4), (self.order, 1), (self.objects, 4)):
-            if tex is not None:
-                total += texture_bytes(tex, ch)
-        return total
+        return sum(texture_bytes(t, self.CHANNELS[n]) for n, t in self.textures.items())
 
     def draw(self, constants: dict) -> None:
-        if not self.order_count or self.base is None or self.objects is None:
+        if not self.order_count or len(self.textures) < len(self.CHANNELS):
             return
         shader = self.shader
         shader.bind()
         for name, value in constants.items():
-            if name in ("sizes", "flags"):
+            if name == "flags":
                 shader.uniform_int(name, value)
             else:
                 shader.uniform_float(name, value)
-        shader.uniform_int("sizes", self.widths)
-        shader.uniform_sampler("base_tex", self.base)
-        shader.uniform_sampler("sh_tex", self.sh)
-        shader.uniform_sampler("order_tex", self.order)
-        shader.uniform_sampler("object_tex", self.objects)
+        shader.uniform_int("sizes", (WIDTH, self.sh_stride, 0, 0))
+        for name in ("pos", "shape", "sh", "order"):
+            shader.uniform_sampler(f"{name}_tex", self.textures[name])
+        shader.uniform_sampler("object_tex", self.textures["objects"])
         gpu.state.blend_set("ALPHA_PREMULT")
         gpu.state.depth_mask_set(False)
         self.batch.draw_instanced(shader, instance_start=0, instance_count=self.order_count)

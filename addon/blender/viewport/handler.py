@@ -20,6 +20,7 @@ from .scene_items import SceneItems
 
 _live = None  # the registered drawer, for the persistent bpy.app handlers
 POLL_SECONDS = 0.02
+ENGINE_IDNAME = "SPLATLINE"  # engine.py's RenderEngine draws in its own view_draw
 
 
 @bpy.app.handlers.persistent
@@ -85,10 +86,17 @@ class ViewportDrawer:
     def stats(self):
         return self.renderer.stats
 
+    @staticmethod
+    def _engine_draws(context) -> bool:
+        """Rendered shading with the Splatline engine: its view_draw shows the splats."""
+        shading = getattr(context.space_data, "shading", None)
+        return (shading is not None and shading.type == "RENDERED"
+                and context.scene.render.engine == ENGINE_IDNAME)
+
     def draw(self) -> None:
         context = bpy.context
         region, rv3d = context.region, context.region_data
-        if rv3d is None or region is None:
+        if rv3d is None or region is None or self._engine_draws(context):
             return
         try:
             items, displays = self.items.collect(context)

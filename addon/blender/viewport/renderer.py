@@ -62,30 +62,39 @@ class Stats:
 
 
 @dataclass
-class _Entry:
-    identity: object
-    splats: object   # kept so an identity by object id can never be reused
-    packed: packing.Packed
-
-
-@dataclass
 class _State:
-    data_token: tuple = ()
+    tokens: dict = field(default_factory=dict)  # texture name -> identities it was built from
+    positions_token: tuple = ()
     sorted_token: object = None
     pending_token: object = None
     objects_token: object = None
-    entries: dict = field(default_factory=dict)
 
 
-def _identity(item: RenderItem):
-    """Cache identity: the item's key and its SplatSet object.
+class _Packs:
+    """Packed arrays per object and texture, cached by the identity of their sources.
 
-    Effects may change colours or opacities under an unchanged key (the key names the
-    base geometry), so the key alone is not enough; the draw handler reuses the same
-    SplatSet object while an object's data is unchanged, which is what makes a hit.
-    The cache entry holds the SplatSet, so its id cannot be reused while cached.
+    A hit needs the same item key and the very same source arrays (`is`): effects may
+    change opacities under an unchanged key, and the draw handler hands back the same
+    arrays while an object's data is unchanged. Entries hold their sources, so an id
+    can never be recycled while cached. Only the current frame's entries are kept.
     """
-    return (item.key, id(item.splats))
+
+    def __init__(self):
+        self.entries: dict = {}
+        self.used: dict = {}
+
+    def get(self, name: str, item: RenderItem, sources: tuple, build, extra=()):
+        ident = (name, item.key, tuple(id(a) for a in sources), extra)
+        hit = self.entries.get(ident)
+        if hit is None or any(x is not y for x, y in zip(hit[0], sources)):
+            hit = (sources, build())
+        self.used[ident] = hit
+        return ident, hit[1]
+
+    def end_frame(self) -> int:
+        """Drop entries not used this frame; returns the bytes kept."""
+        self.entries, self.used = self.used, {}
+        return sum(v[1].nbytes for v in self.entries.values())
 
 
 class ViewportRenderer:
@@ -93,6 +102,7 @@ class ViewportRenderer:
         self.gpu = None  # created on the first draw, inside a GPU context
         self.stats = Stats()
         self.state = _State()
+        self.packs = _Packs()
         self.worker = SortWorker(on_sorted) if worker else None
 
     def close(self) -> None:
@@ -101,38 +111,58 @@ class ViewportRenderer:
             self.worker = None
         self.gpu = None
         self.state = _State()
+        self.packs = _Packs()
 
     # -- data ---------------------------------------------------------------
-    def _packed(self, item: RenderItem, display: ItemDisplay) -> packing.Packed:
-        ident = (_identity(item), min(item.sh_degree, display.max_sh_degree))
-        entry = self.state.entries.get(ident)
-        if entry is None or entry.splats is not item.splats:
-            entry = _Entry(ident, item.splats, packing.pack(item.splats, ident[1]))
-        return entry
-
-    def _update_data(self, items, displays) -> bool:
+    def _texture(self, name, items, per_splat, sources, build, extra=()):
+        """Upload texture `name` if any object's sources changed; returns seconds spent."""
         start = time.perf_counter()
-        entries = [self._packed(i, d) for i, d in zip(items, displays)]
-        token = tuple(e.identity for e in entries)
-        if token == self.state.data_token and self.gpu.base is not None:
-            return False
-        parts = [e.packed for e in entries]
-        base, sh, stride = packing.concatenate(parts)
-        self.gpu.set_data(base, sh, stride)
-        self.state.entries = {e.identity: e for e in entries}
-        self.state.data_token = token
-        self.state.sorted_token = None
-        self.stats.total = sum(p.count for p in parts)
-        self.stats.cpu_bytes = sum(p.nbytes for p in parts)
-        self.stats.upload_seconds = time.perf_counter() - start
-        self.stats.frame_upload += self.stats.upload_seconds
+        got = [self.packs.get(name, i, src, lambda i=i: build(i), extra) for i, src in zip(items, sources)]
+        token = tuple(ident for ident, _ in got)
+        if self.state.tokens.get(name) == token:
+            return 0.0
+        counts = [i.splats.count for i in items]
+        flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
+        if name == "shape" and len(got) > 1:
+            packing.set_slots(flat, counts)
+        self.gpu.set_texture(name, flat)
+        self.state.tokens[name] = token
         self.stats.uploads += 1
-        return True
+        return time.perf_counter() - start
+
+    def _update_data(self, items, displays) -> list:
+        """Upload changed data textures; returns each item's positions (3, N) for sorting."""
+        degrees = [max(0, min(i.sh_degree, d.max_sh_degree, i.splats.sh_degree))
+                   for i, d in zip(items, displays)]
+        stride = max(packing.sh_texels(g) for g in degrees)
+        seconds = self._texture("pos", items, 1, [(i.splats.positions, i.splats.opacities) for i in items],
+                                lambda i: packing.pack_pos(i.splats))
+        seconds += self._texture("shape", items, packing.SHAPE_TEXELS,
+                                 [(i.splats.rotations, i.splats.scales, i.splats.sh_dc) for i in items],
+                                 lambda i: packing.pack_shape(i.splats))
+        by_item = dict(zip(map(id, items), degrees))
+        seconds += self._texture("sh", items, stride, [(i.splats.sh_rest,) for i in items],
+                                 lambda i: packing.pack_sh(i.splats, by_item[id(i)], stride),
+                                 extra=(tuple(degrees), stride))
+        self.gpu.sh_stride = stride
+        soa = [self.packs.get("soa", i, (i.splats.positions,),
+                              lambda i=i: np.ascontiguousarray(i.splats.positions.T, np.float32))
+               for i in items]
+        token = tuple(ident for ident, _ in soa)
+        if token != self.state.positions_token:
+            self.state.positions_token = token
+            self.state.sorted_token = None  # the old order is stale: sort inline this frame
+        self.stats.cpu_bytes = self.packs.end_frame()
+        self.stats.total = sum(i.splats.count for i in items)
+        if seconds:
+            self.stats.upload_seconds = seconds
+            self.stats.frame_upload += seconds
+        return [a for _, a in soa]
 
     # -- view ---------------------------------------------------------------
     def _sort_token(self, l2c, projection, displays):
         flat = np.concatenate([np.asarray(projection, np.float64).ravel()] + [m.ravel() for m in l2c])
-        return (self.state.data_token, tuple((d.cull, d.dilation, d.key_bits) for d in displays), flat)
+        return (self.state.positions_token, tuple((d.cull, d.dilation, d.key_bits) for d in displays), flat)
 
     @staticmethod
     def _same_view(a, b) -> bool:
@@ -141,16 +171,15 @@ class ViewportRenderer:
         scale = max(1.0, float(np.abs(b[2]).max(initial=0.0)))
         return float(np.abs(a[2] - b[2]).max(initial=0.0)) <= RESORT_EPS * scale
 
-    def _update_order(self, items, displays, l2c, projection, near, far, settings) -> None:
+    def _update_order(self, soa, displays, l2c, projection, near, far, settings) -> None:
         token = self._sort_token(l2c, projection, displays)
         if self.worker is not None:
             done = self.worker.take()
-            if done is not None and done.token[0] == self.state.data_token:
+            if done is not None and done.token[0] == self.state.positions_token:
                 self._upload_order(done)
         if self._same_view(token, self.state.sorted_token):
             return
-        inputs = [SortInput(self.state.entries[e].packed.positions_soa, m, d.cull, d.dilation)
-                  for e, m, d in zip(self.state.data_token, l2c, displays)]
+        inputs = [SortInput(p, m, d.cull, d.dilation) for p, m, d in zip(soa, l2c, displays)]
         bits = max(d.key_bits for d in displays)
         have_order = self.state.sorted_token is not None
         if settings.sync_sort or self.worker is None or not have_order:
@@ -210,9 +239,9 @@ class ViewportRenderer:
                                linear_output=settings.linear_output, point_size=settings.point_size)
         view = np.asarray(view_matrix, np.float64)
         l2c = [view @ np.asarray(i.world, np.float64) for i in items]
-        self._update_data(items, displays)
+        soa = self._update_data(items, displays)
         near, far = const["frame"][2], const["frame"][3]
-        self._update_order(items, displays, l2c, projection_matrix, near, far, settings)
+        self._update_order(soa, displays, l2c, projection_matrix, near, far, settings)
         self._update_objects(items, displays, l2c, bool(const["flags"][0]))
         self.stats.gpu_bytes = self.gpu.nbytes
         return const

@@ -6,6 +6,9 @@ the drawing path of ViewportRenderer into a small GPUOffScreen, timing the CPU s
           cost is visible; the draw handler moves it to the worker thread)
   upload  packing + texture uploads (splat data, order, per-object table)
   total   ViewportRenderer.prepare(): everything draw() does before the draw call
+Cases "orbit" sorts inline (the full CPU cost per frame); "orbit-bg" is the draw
+handler's mode: the sort runs on the worker thread, the drawing thread only uploads
+each finished order (frames 33 ms apart, untimed), so its sort column is 0.
   draw*   the draw call itself, once per size. On llvmpipe the "GPU" is this CPU and
           the call rasterises every quad before returning, so it measures software
           rendering, not the drawing path's CPU cost; on a real GPU it only queues work.
@@ -29,7 +32,8 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 SIZES = (100_000, 1_000_000, 3_000_000)
-FRAMES = {"still": 15, "orbit": 7, "data": 4}
+FRAMES = {"still": 15, "orbit": 7, "orbit-bg": 7, "data": 4}
+FRAME_GAP = 0.033  # seconds between orbit-bg frames (not timed): the worker sorts meanwhile
 WIDTH, HEIGHT = 64, 48
 DEGREE = 1
 
@@ -64,19 +68,24 @@ def _projection():
 
 
 def _run(case: str, item, renderer, proj) -> list[tuple[float, float, float]]:
+    from addon.blender.viewport import DrawSettings
+
+    settings = DrawSettings(sync_sort=case != "orbit-bg")
     rows = []
     rng = np.random.default_rng(1)
     for frame in range(FRAMES[case] + 1):  # frame 0 warms up (first upload, shader)
-        view = _view(frame if case == "orbit" else 0)
+        view = _view(frame if case.startswith("orbit") else 0)
         if case == "data" and frame:
             s = item.splats
             moved = replace(s, opacities=np.clip(s.opacities * rng.uniform(0.9, 1.1, s.count)
                                                  .astype(np.float32), 0, 1),
                             positions=s.positions + np.float32(1e-3) * np.float32(frame))
-            item = replace(item, splats=moved, key=("bench", frame))
+            item = replace(item, splats=moved)  # same key, new arrays: as the effect stack does
         start = time.perf_counter()
-        renderer.prepare([item], view, proj, (WIDTH, HEIGHT))
+        renderer.prepare([item], view, proj, (WIDTH, HEIGHT), settings)
         total = time.perf_counter() - start
+        if case == "orbit-bg":
+            time.sleep(FRAME_GAP)
         if frame:
             rows.append((renderer.stats.frame_sort, renderer.stats.frame_upload, total))
     return rows
@@ -122,15 +131,15 @@ def main() -> None:
     proj = _projection()
     print(f"viewport drawing path, CPU ms per frame (medians), SH degree {DEGREE}, "
           f"{WIDTH}x{HEIGHT} GPUOffScreen, 16-bit keys, inline sort")
-    print(f"{'splats':>9} {'case':>6} {'sort':>8} {'upload':>8} {'total':>8} {'argsort':>8} "
+    print(f"{'splats':>9} {'case':>8} {'sort':>8} {'upload':>8} {'total':>8} {'argsort':>8} "
           f"{'sort/argsort':>12} {'draw*':>9}")
     verdicts = []
     for n in SIZES:
         item = RenderItem(_splats(n), key=("bench", 0))
         base = _argsort_ms(n)
         draw_ms = _draw_call_ms(item, proj)
-        for case in ("still", "orbit", "data"):
-            renderer = ViewportRenderer()
+        for case in ("still", "orbit", "orbit-bg", "data"):
+            renderer = ViewportRenderer(worker=case == "orbit-bg")
             off = gpu.types.GPUOffScreen(WIDTH, HEIGHT, format="RGBA16F")
             with off.bind():
                 rows = _run(case, item, renderer, proj)
@@ -138,7 +147,7 @@ def main() -> None:
             renderer.close()
             sort, upload, total = (1e3 * statistics.median(c) for c in zip(*rows))
             ratio = f"{sort / base:.2f}" if sort else "-"
-            print(f"{n:>9,} {case:>6} {sort:>8.2f} {upload:>8.2f} {total:>8.2f} {base:>8.1f} {ratio:>12} "
+            print(f"{n:>9,} {case:>8} {sort:>8.2f} {upload:>8.2f} {total:>8.2f} {base:>8.1f} {ratio:>12} "
                   f"{draw_ms:>9.1f}", flush=True)
             if case == "still":
                 verdicts.append((f"still {n:,}: total < 1 ms", total < 1.0))

@@ -117,17 +117,18 @@ def test_scene_items_follow_depsgraph_updates(bpy_empty):
     items, displays = cache.collect(bpy.context)
     assert len(items) == 1 and displays[0].key_bits == 16
     assert np.allclose(items[0].splats.positions, splats.positions + [1, 0, 0], atol=1e-6)
-    key = items[0].key
+    first, version = items[0], cache.versions["cap"]
 
     obj.location = (0.0, 2.0, 0.0)  # transform only: same data, new matrix
     bpy.context.view_layer.update()
     items, _ = cache.collect(bpy.context)
-    assert items[0].key == key and items[0].world[1, 3] == pytest.approx(2.0)
+    assert cache.versions["cap"] == version and items[0].splats is first.splats
+    assert items[0].world[1, 3] == pytest.approx(2.0)
 
     move.inputs["Translation"].default_value = (0.0, 0.0, 3.0)  # the modifier changes the geometry
     bpy.context.view_layer.update()
     items, _ = cache.collect(bpy.context)
-    assert items[0].key != key
+    assert cache.versions["cap"] > version and items[0].splats is not first.splats
     assert np.allclose(items[0].splats.positions, splats.positions + [0, 0, 3], atol=1e-6)
 
     obj.hide_set(True)

@@ -96,8 +96,9 @@ class SceneItems:
             cached = self.items.get(name)
             world = np.array(obj_eval.matrix_world, np.float64)
             if cached is None or cached[0] != version:
+                # the evaluator's own key: with the arrays' identities it decides what
+                # the renderer re-uploads (an effect that only fades uploads one texture)
                 item = evaluate.item_for(obj_eval, depsgraph)
-                item = replace(item, key=(name, version, item.key))
             else:
                 item = replace(cached[1], world=world)
             self.items[name] = (version, item)

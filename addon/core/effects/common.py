@@ -170,13 +170,6 @@ def rotate_quats_about(axis, cos_half: np.ndarray, sin_half: np.ndarray, q) -> n
     return join(out)
 
 
-def axis_angle_quats(axes, angles: np.ndarray) -> list[np.ndarray]:
-    """Quaternions (4 columns) rotating by angles (N,) about unit axes: three (N,) columns."""
-    half = angles * F32(0.5)
-    s = np.sin(half)
-    return [np.cos(half, out=half)] + [s * axes[i] for i in range(3)]
-
-
 def per_splat_random(n: int, seed: int, salt: int) -> np.ndarray:
     """(3, n) float32 standard normals (three contiguous rows), a pure function of
     (n, seed, salt)."""

@@ -247,3 +247,16 @@ def test_disabled_or_zero_amount_effects_return_the_input():
     s = make(LINE)
     for p in (Reveal(enabled=False), Displace(amount=0.0), Grade(enabled=False), Twist(amount=0.0)):
         assert evaluate_stack(s, [p], 1.0).splats is s
+
+
+def test_degenerate_gizmo_and_empty_sets_do_not_stop_evaluation():
+    s = make(LINE)
+    flat = frame(scale=0.0)  # an Empty scaled to 0: singular
+    for p in (Reveal(frame=flat), Twist(frame=flat), Grade(frame=flat), Displace(frame=flat)):
+        out = evaluate_stack(s, [p], 1.0).splats
+        assert np.isfinite(out.positions).all() and np.isfinite(out.opacities).all()
+    empty = SplatSet.allocate(0, 1)
+    grown = evaluate_stack(empty, [Morph(target=s, amount=0.5)], 0.0).splats
+    np.testing.assert_allclose(grown.opacities, 0.4)  # all target splats fade in
+    gone = evaluate_stack(s, [Morph(target=empty, amount=0.25)], 0.0).splats
+    np.testing.assert_allclose(gone.opacities, 0.6)   # all source splats fade out

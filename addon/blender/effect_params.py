@@ -94,13 +94,18 @@ def basis_at(obj, frame: float) -> np.ndarray:
     return np.array(matrix, np.float64)
 
 
+def relative_to(world: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """inv(world) @ other, also for a singular world (an object scaled to 0)."""
+    return fx.common.inverse(world) @ other
+
+
 def gizmo_frame(effect, world: np.ndarray, depsgraph) -> np.ndarray:
     if effect.gizmo is not None:
         target = world_matrix(effect.gizmo, depsgraph)
     else:
         target = np.eye(4)
         target[:3, 3] = world[:3, 3]
-    return np.linalg.solve(world, target)
+    return relative_to(world, target)
 
 
 def _stops(effect):

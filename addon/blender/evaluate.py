@@ -171,7 +171,7 @@ def _effect_stack(obj_eval, depsgraph, world, fps, source, source_key):
             if target is None or not is_splat_object(target):
                 continue
             target_splats, target_key = base_splats(target, depsgraph)
-            relative = np.linalg.solve(world, effect_params.world_matrix(target, depsgraph))
+            relative = effect_params.relative_to(world, effect_params.world_matrix(target, depsgraph))
             morph = _MORPH.target(source, source_key, target_splats, target_key, relative)
             extra = (target_key, relative.tobytes())
         stack.append(effect_params.build(effect, frame, fps, morph))

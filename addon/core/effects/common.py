@@ -33,12 +33,22 @@ def is_identity(m: np.ndarray) -> bool:
     return bool(np.array_equal(m, np.eye(4)))
 
 
+def inverse(m: np.ndarray) -> np.ndarray:
+    """Inverse of a 4x4 transform; the pseudo-inverse when it is singular (an Empty or
+    object scaled to 0 on some axis), so a degenerate frame never stops evaluation."""
+    m = np.asarray(m, np.float64)
+    try:
+        return np.linalg.inv(m)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(m)
+
+
 def local_columns(positions: np.ndarray, frame: np.ndarray, axes=(0, 1, 2)) -> list[np.ndarray]:
     """Gizmo-local coordinates of the centres, one contiguous float32 column per axis asked."""
     cols = [positions[:, 0], positions[:, 1], positions[:, 2]]
     if is_identity(frame):
         return [np.ascontiguousarray(cols[a]) for a in axes]
-    inv = np.linalg.inv(np.asarray(frame, np.float64))
+    inv = inverse(frame)
     out = []
     for a in axes:
         row = inv[a]

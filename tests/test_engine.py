@@ -243,3 +243,26 @@ def test_blender_output_panels_show_for_the_engine(_bpy_registered):
         assert not any("SPLATLINE" in panel.COMPAT_ENGINES for panel in found)
     finally:
         register()
+
+
+def test_no_splats_gives_an_empty_frame_and_hidden_objects_do_not_render(bpy_empty, tmp_path):
+    bpy = bpy_empty
+    add_camera(bpy)
+    scene = setup_render(bpy, 32, 24)
+    set_output(scene, "EXR", tmp_path / "empty")
+    bpy.ops.render.render(write_still=True)
+    empty = read_exr_parts(tmp_path / "empty.exr")
+    assert np.all(empty["ViewLayer.Combined"] == 0)
+    assert np.all(empty["ViewLayer.Depth"] == 1e10)
+
+    add_splats(bpy, "shown", flat_splats([(0, 0, 0)], [(0.9, 0.1, 0.1)]))
+    hidden = add_splats(bpy, "hidden", flat_splats([(0.3, -1, 0)], [(0.1, 0.9, 0.1)]))
+    hidden.hide_render = True
+    set_output(scene, "EXR", tmp_path / "one")
+    bpy.ops.render.render(write_still=True)
+    bpy.data.objects.remove(hidden)
+    set_output(scene, "EXR", tmp_path / "alone")
+    bpy.ops.render.render(write_still=True)
+    one = read_exr_parts(tmp_path / "one.exr")["ViewLayer.Combined"]
+    assert one[..., 3].max() > 0.9
+    np.testing.assert_array_equal(one, read_exr_parts(tmp_path / "alone.exr")["ViewLayer.Combined"])

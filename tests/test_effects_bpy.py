@@ -134,3 +134,16 @@ def test_hidden_animated_morph_target_follows_its_keyframes(bpy_empty):
     assert list(morphed) == ["source"]
     np.testing.assert_allclose(morphed["source"].splats.positions, tgt_splats.positions + [2.0, 0, 0],
                                atol=1e-5)
+
+
+def test_base_cache_lets_deleted_objects_go(bpy_empty):
+    from addon.blender import evaluate
+
+    bpy = bpy_empty
+    doomed = add_object("doomed", grid_splats(seed=5))
+    items_at(bpy, 1)
+    assert "doomed" in evaluate._BASE.entries
+    bpy.data.objects.remove(doomed)
+    add_object("fresh", grid_splats(seed=6))
+    items_at(bpy, 1)  # reading the new object prunes the deleted one
+    assert "doomed" not in evaluate._BASE.entries and "fresh" in evaluate._BASE.entries

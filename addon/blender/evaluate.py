@@ -108,7 +108,14 @@ class BaseCache:
                 array.flags.writeable = False
             hit = (key, splats)
             self.entries[name] = hit
+            self.prune()
         return hit[1], hit[0]
+
+    def prune(self) -> None:
+        """Let the data of deleted objects go (a million splats hold ~250 MB)."""
+        alive = {obj.name_full for obj in bpy.data.objects}  # only after a read: rare
+        for name in [n for n in self.entries if n not in alive]:
+            self.entries.pop(name, None)
 
     def on_update(self, depsgraph) -> None:
         updates = list(depsgraph.updates)

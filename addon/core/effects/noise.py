@@ -119,6 +119,8 @@ class FieldCache:
         for v in values:
             v.flags.writeable = False
         with self.lock:
+            for dead in [k for k, (ref, _) in self.entries.items() if ref() is None]:
+                del self.entries[dead]  # their centres are gone: no lookup can hit them
             self.entries[key] = (weakref.ref(positions), values)
             while len(self.entries) > self.size:
                 self.entries.popitem(last=False)

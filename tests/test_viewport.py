@@ -163,3 +163,22 @@ def test_no_items_draws_nothing(gpu_ready, scene):
     _, camera, _ = scene
     rgba, renderer = draw_offscreen([], camera)
     assert not rgba.any() and renderer.gpu is None  # no shader, no textures made
+
+
+def test_orthographic_and_shifted_cameras(gpu_ready, scene):
+    """The projection matrix path covers ortho and lens shift as the reference does."""
+    from dataclasses import replace
+
+    from addon.core.camera import Camera
+
+    items, camera, _ = scene
+    shifted = replace(camera, cx=camera.cx + 17.0, cy=camera.cy - 9.0)
+    ortho = Camera(camera.world_to_camera, camera.width, camera.height, fx=camera.width / 0.6,
+                   fy=camera.width / 0.6, cx=camera.width / 2 + 5.0, cy=camera.height / 2,
+                   near=0.05, far=50.0, ortho=True)
+    for cam in (shifted, ortho):
+        ref = reference.render(items, cam, RenderOptions()).rgba
+        assert ref[..., 3].mean() > 0.1
+        assert _keys_distinct(items, cam, 16)
+        rgba, _ = draw_offscreen(items, cam)
+        assert psnr(rgba, ref) >= PSNR_MIN, cam.ortho

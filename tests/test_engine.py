@@ -266,3 +266,25 @@ def test_no_splats_gives_an_empty_frame_and_hidden_objects_do_not_render(bpy_emp
     one = read_exr_parts(tmp_path / "one.exr")["ViewLayer.Combined"]
     assert one[..., 3].max() > 0.9
     np.testing.assert_array_equal(one, read_exr_parts(tmp_path / "alone.exr")["ViewLayer.Combined"])
+
+
+def test_each_view_layer_gets_its_own_splats(bpy_empty, tmp_path):
+    bpy = bpy_empty
+    # Apart on screen: 3 sigma is 6 px here, the centres are 25 px apart.
+    add_splats(bpy, "a", flat_splats([(-1.5, 0, 0)], [(0.9, 0.1, 0.1)], scale=0.25))
+    collection = bpy.data.collections.new("B")
+    bpy.context.scene.collection.children.link(collection)
+    b = add_splats(bpy, "b", flat_splats([(1.5, 0, 0)], [(0.1, 0.9, 0.1)], scale=0.25))
+    bpy.context.scene.collection.objects.unlink(b)
+    collection.objects.link(b)
+    add_camera(bpy)
+    scene = setup_render(bpy, 48, 32)
+    scene.view_layers.new("OnlyA").layer_collection.children["B"].exclude = True
+    set_output(scene, "EXR", tmp_path / "layers")
+    bpy.ops.render.render(write_still=True)
+    parts = read_exr_parts(tmp_path / "layers.exr")
+    both, only_a = parts["ViewLayer.Combined"], parts["OnlyA.Combined"]
+    assert "OnlyA.Depth" in parts
+    left, right = np.s_[:, :24], np.s_[:, 24:]
+    np.testing.assert_array_equal(only_a[left], both[left])
+    assert both[right][..., 3].max() > 0.9 and only_a[right][..., 3].max() == 0.0

@@ -6,6 +6,8 @@ Morph targets are the target object's base splats mapped into the source object'
 """
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ..core import effects as fx
@@ -190,17 +192,21 @@ class MorphCache:
     def __init__(self, size: int = 4):
         self.size = size
         self.entries: dict = {}
+        self.lock = threading.Lock()  # the viewport and a render thread may share it
 
     def target(self, source: SplatSet, source_key, target: SplatSet, target_key, relative):
-        key = (source_key, source.count, target_key, relative.round(9).tobytes())
-        hit = self.entries.get(key)
+        key = (source_key, source.count, target_key, relative.tobytes())
+        with self.lock:
+            hit = self.entries.get(key)
         if hit is None:
             mapped = map_into(target, relative)
             hit = (mapped, pair(source.positions, mapped.positions))
-            self.entries[key] = hit
-            while len(self.entries) > self.size:
-                self.entries.pop(next(iter(self.entries)))
+            with self.lock:
+                self.entries[key] = hit
+                while len(self.entries) > self.size:
+                    self.entries.pop(next(iter(self.entries)))
         return hit
 
     def clear(self):
-        self.entries.clear()
+        with self.lock:
+            self.entries.clear()

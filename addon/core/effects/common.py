@@ -11,6 +11,7 @@ rigid in object space, around the gizmo's origin and its normalized axes.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -182,18 +183,21 @@ def rotate_quats_about(axis, cos_half: np.ndarray, sin_half: np.ndarray, q) -> n
 
 def per_splat_random(n: int, seed: int, salt: int) -> np.ndarray:
     """(3, n) float32 standard normals (three contiguous rows), a pure function of
-    (n, seed, salt)."""
+    (n, seed, salt). Memoized (bounded; the viewport and a render thread may share it)."""
     key = (n, seed, salt)
-    hit = _RANDOM_CACHE.get(key)
+    with _RANDOM_LOCK:
+        hit = _RANDOM_CACHE.get(key)
     if hit is None:
         rng = np.random.default_rng([seed & 0xFFFFFFFF, salt])
         hit = rng.standard_normal((3, n), dtype=np.float32)
         hit.flags.writeable = False
-        _RANDOM_CACHE[key] = hit
-        while len(_RANDOM_CACHE) > 4:
-            _RANDOM_CACHE.pop(next(iter(_RANDOM_CACHE)))
+        with _RANDOM_LOCK:
+            _RANDOM_CACHE[key] = hit
+            while len(_RANDOM_CACHE) > 4:
+                _RANDOM_CACHE.pop(next(iter(_RANDOM_CACHE)))
     return hit
 
 
 # A pure cache (results never depend on it), bounded to a few arrays.
 _RANDOM_CACHE: dict = {}
+_RANDOM_LOCK = threading.Lock()

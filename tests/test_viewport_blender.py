@@ -157,12 +157,13 @@ def test_register_unregister_three_times_leaves_nothing(_bpy_registered):
     from addon.blender import viewport
     from addon.blender.viewport import handler
 
-    drawers = []
+    drawers, handles = [], []
     unregister()  # the session fixture registered it
     try:
         for _ in range(3):
             register()
             drawers.append(viewport.drawer())
+            handles.append(viewport.drawer()._handle)
             assert any(t.name == "splatline-sort" for t in threading.enumerate())
             unregister()
             assert viewport.drawer() is None
@@ -173,6 +174,26 @@ def test_register_unregister_three_times_leaves_nothing(_bpy_registered):
             assert not hasattr(bpy.types, "SPLATLINE_PT_viewport_stats")
     finally:
         register()
-    for old in drawers:  # every handle was removed: removing it again is refused
-        assert old._handle is None
+    for handle in handles:  # every draw handler was removed: removing it again is refused
+        with pytest.raises(ValueError):
+            bpy.types.SpaceView3D.draw_handler_remove(handle, "WINDOW")
     assert len({id(d) for d in drawers}) == 3
+
+
+def test_viewport_draws_after_an_f12_render(bpy_empty, gpu_ready, tmp_path):
+    """The offscreen renderer's own GL context must leave Blender's GPU context usable."""
+    from addon.blender.evaluate import collect_items
+    from addon.core import reference
+    from addon.core.scene import RenderOptions
+    from engine_scene import add_camera, add_splats, setup_render
+
+    bpy = bpy_empty
+    add_splats(bpy, "cap", blob(80, 1, seed=5, centre=(0, 0, 0), spread=0.4))
+    add_camera(bpy, location=(0.0, -4.0, 0.5))
+    setup_render(bpy, 32, 24)
+    bpy.context.scene.render.filepath = str(tmp_path / "f12.png")
+    bpy.ops.render.render(write_still=True)
+    items = collect_items(bpy.context.evaluated_depsgraph_get())
+    cam = camera_for((0, 0, 0), 64, 48)
+    rgba, _ = draw_offscreen(items, cam)
+    assert psnr(rgba, reference.render(items, cam, RenderOptions()).rgba) >= 60.0

@@ -87,3 +87,15 @@ def test_worker_returns_the_latest_request():
     finally:
         worker.stop()
     assert not worker.alive
+
+
+def test_culling_keeps_a_large_splat_whose_body_covers_the_view():
+    """Centre off-screen, 3-sigma sphere reaching into the view: kept; a small one: culled."""
+    cam = _camera()
+    half_w = np.tan(np.radians(30.0)) * 10.0
+    pts = np.array([[2.0 * half_w, 0, 0], [2.0 * half_w, 0, 0]], np.float32)
+    scales = np.array([[0.5 * half_w, 0.01, 0.01], [0.01, 0.01, 0.01]], np.float32)
+    inp = SortInput.of(pts, cam.world_to_camera, True, 0.0, scales=scales)
+    assert list(visible_order([inp], projection_matrix(cam), cam.near, cam.far).order) == [0]
+    inp.radius_scale = 0.1  # the splat-scale multipliers shrink it out of view
+    assert list(visible_order([inp], projection_matrix(cam), cam.near, cam.far).order) == []

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .sorting import SortInput, SortWorker, visible_order
+from .sorting import SortInput, SortWorker, sort_layout, visible_order
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
 MODES = {"GAUSSIAN": 0, "POINTS": 1, "OPAQUE": 2}
@@ -145,8 +145,8 @@ class ViewportRenderer:
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], stride),
                                  extra=(tuple(degrees), stride))
         self.gpu.sh_stride = stride
-        soa = [self.packs.get("soa", i, (i.splats.positions,),
-                              lambda i=i: np.ascontiguousarray(i.splats.positions.T, np.float32))
+        soa = [self.packs.get("soa", i, (i.splats.positions, i.splats.scales),
+                              lambda i=i: sort_layout(i.splats.positions, i.splats.scales))
                for i in items]
         token = tuple(ident for ident, _ in soa)
         if token != self.state.positions_token:
@@ -160,9 +160,11 @@ class ViewportRenderer:
         return [a for _, a in soa]
 
     # -- view ---------------------------------------------------------------
-    def _sort_token(self, l2c, projection, displays):
+    def _sort_token(self, items, l2c, projection, displays):
         flat = np.concatenate([np.asarray(projection, np.float64).ravel()] + [m.ravel() for m in l2c])
-        return (self.state.positions_token, tuple((d.cull, d.dilation, d.key_bits) for d in displays), flat)
+        opts = tuple((d.cull, d.dilation, d.key_bits, d.splat_scale) for d in displays)
+        scales = tuple(i.splat_scale for i in items)
+        return (self.state.positions_token, opts + scales, flat)
 
     @staticmethod
     def _same_view(a, b) -> bool:
@@ -171,15 +173,16 @@ class ViewportRenderer:
         scale = max(1.0, float(np.abs(b[2]).max(initial=0.0)))
         return float(np.abs(a[2] - b[2]).max(initial=0.0)) <= RESORT_EPS * scale
 
-    def _update_order(self, soa, displays, l2c, projection, near, far, settings) -> None:
-        token = self._sort_token(l2c, projection, displays)
+    def _update_order(self, items, soa, displays, l2c, projection, near, far, settings) -> None:
+        token = self._sort_token(items, l2c, projection, displays)
         if self.worker is not None:
             done = self.worker.take()
             if done is not None and done.token[0] == self.state.positions_token:
                 self._upload_order(done)
         if self._same_view(token, self.state.sorted_token):
             return
-        inputs = [SortInput(p, m, d.cull, d.dilation) for p, m, d in zip(soa, l2c, displays)]
+        inputs = [SortInput(p, m, d.cull, d.dilation, i.splat_scale * d.splat_scale)
+                  for p, m, d, i in zip(soa, l2c, displays, items)]
         bits = max(d.key_bits for d in displays)
         have_order = self.state.sorted_token is not None
         if settings.sync_sort or self.worker is None or not have_order:
@@ -241,7 +244,7 @@ class ViewportRenderer:
         l2c = [view @ np.asarray(i.world, np.float64) for i in items]
         soa = self._update_data(items, displays)
         near, far = const["frame"][2], const["frame"][3]
-        self._update_order(soa, displays, l2c, projection_matrix, near, far, settings)
+        self._update_order(items, soa, displays, l2c, projection_matrix, near, far, settings)
         self._update_objects(items, displays, l2c, bool(const["flags"][0]))
         self.stats.gpu_bytes = self.gpu.nbytes
         return const

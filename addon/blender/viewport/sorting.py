@@ -16,18 +16,32 @@ from ...core.sort import far_to_near
 
 @dataclass
 class SortInput:
-    """One object's part of the sort: positions and the matrices that place them."""
+    """One object's part of the sort: centres, bounding radii and where they are placed."""
 
-    positions_soa: np.ndarray    # (3, N) float32, object space, one row per axis
+    soa: np.ndarray              # (4, N) float32, object space: x, y, z rows, then the
+                                 # bounding radius (3 sigma of the largest scale)
     local_to_camera: np.ndarray  # (4, 4) float64 (Blender camera: looks down -z)
     cull: bool = True
     dilation: float = 0.2        # frustum grown by this fraction of its half-size
+    radius_scale: float = 1.0    # splat scale multipliers applied to the radii
 
     @staticmethod
-    def of(positions: np.ndarray, local_to_camera, cull: bool = True, dilation: float = 0.2):
-        """From (N, 3) positions (copied to the row-per-axis layout)."""
-        soa = np.ascontiguousarray(np.asarray(positions, np.float32).T)
-        return SortInput(soa, local_to_camera, cull, dilation)
+    def of(positions: np.ndarray, local_to_camera, cull: bool = True, dilation: float = 0.2,
+           scales: np.ndarray | None = None):
+        return SortInput(sort_layout(positions, scales), local_to_camera, cull, dilation)
+
+
+def sort_layout(positions: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:
+    """(4, N) float32 rows x, y, z, 3 * max(scale): what culling and sorting read."""
+    n = positions.shape[0]
+    soa = np.empty((4, n), np.float32)
+    soa[:3] = np.asarray(positions, np.float32).T
+    if scales is None:
+        soa[3] = 0.0
+    else:
+        np.max(scales, axis=1, out=soa[3])
+        soa[3] *= 3.0
+    return soa
 
 
 @dataclass
@@ -52,19 +66,32 @@ def _rows(m: np.ndarray, projection: np.ndarray, cull: bool) -> np.ndarray:
 
 
 def _keep(part: SortInput, projection, near, far):
-    """(depths, indices or None for all) of one object's splats that survive culling."""
+    """(depths, indices or None for all) of one object's splats that survive culling.
+
+    Culling is conservative: a splat goes only when its bounding sphere (3 sigma of
+    its largest axis) lies wholly outside the grown frustum, so a large splat whose
+    centre is off-screen but whose body covers the view is kept. The near and far
+    tests use the centre, as every renderer does.
+    """
     rows = _rows(np.asarray(part.local_to_camera, np.float64), projection, part.cull)
     # rows of q are contiguous: every test below is one streaming pass
-    q = rows[:, :3].astype(np.float32) @ part.positions_soa
+    q = rows[:, :3].astype(np.float32) @ part.soa[:3]
     q += rows[:, 3:].astype(np.float32)
     depth = q[0]
     keep = depth > near
     keep &= depth <= far
     if part.cull:
-        x, y = np.abs(q[1], out=q[1]), np.abs(q[2], out=q[2])
-        np.maximum(x, y, out=x)
+        grow = 1.0 + part.dilation
         w = q[3] if q.shape[0] == 4 else depth
-        keep &= x <= w * np.float32(1.0 + part.dilation)
+        lim = w * np.float32(grow)
+        norm_w = np.linalg.norm(rows[-1 if q.shape[0] == 4 else 0, :3])
+        radius = part.soa[3] * np.float32(part.radius_scale)
+        for axis in (1, 2):
+            # |x| <= grow * w relaxed by the sphere: x and w move by at most |row| * R
+            reach = np.float32(np.linalg.norm(rows[axis, :3]) + grow * norm_w)
+            a = np.abs(q[axis], out=q[axis])
+            a -= radius * reach
+            keep &= a <= lim
     if keep.all():
         return depth, None
     idx = np.flatnonzero(keep).astype(np.int32)  # half the bytes for the gathers that follow
@@ -84,7 +111,7 @@ def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, 
     projection = np.asarray(projection, np.float64)
     for part in inputs:
         depth, idx = _keep(part, projection, near, far)
-        n = part.positions_soa.shape[1]
+        n = part.soa.shape[1]
         if idx is None and len(inputs) > 1:
             idx = np.arange(n, dtype=np.int32)
         depths.append(depth)

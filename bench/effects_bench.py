@@ -74,7 +74,8 @@ def rows(source: SplatSet, target: SplatSet):
         ("reveal (noise, warm)", [Reveal(shape="NOISE", progress=0.5, width=0.2)]),
         ("reveal (noise, cold)", [Reveal(shape="NOISE", progress=0.5, width=0.2)], "cold"),
         ("displace (warm: noise layers memoized)", [Displace(amplitude=0.1, frequency=2.0)]),
-        ("displace (cold: new layer/centres)", [Displace(amplitude=0.1, frequency=2.0)], "cold"),
+        ("displace (cold: two new layers)", [Displace(amplitude=0.1, frequency=2.0)], "cold"),
+        ("twist then displace (warm)", [Twist(twist=0.5), Displace(amplitude=0.1, frequency=2.0)]),
         ("explode (spin, fade)", [Explode(spin=2.0, gravity=1.0, fade=0.3)]),
         ("explode (no spin)", [Explode(gravity=1.0)]),
         ("twist + swirl", [Twist(twist=0.5, swirl=1.0)]),
@@ -178,8 +179,8 @@ def main(argv=None) -> None:
           "write), so the floor is memory traffic ('copy floor': a numpy copy of the same bytes);"
           " 'x floor' is the CPU time over that. Plane/height fields and colour are a few passes over"
           " columns; noise costs one 32-byte gather + an 8-term weighted sum per channel per splat"
-          " when it is evaluated (cold), and a blend when it is memoized (warm: same centres, same"
-          " layer); rotations (spin, twist) and morph's slerp are transcendental-bound (sin, cos,"
+          " when it is evaluated (cold), and a blend when it is memoized (warm: noise is sampled at"
+          " the rest centres, so only a new Displace layer or new base data is cold); rotations (spin, twist) and morph's slerp are transcendental-bound (sin, cos,"
           " arccos per splat). Wall time > CPU time means the 2 cores were shared.")
 
 

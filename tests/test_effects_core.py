@@ -260,3 +260,17 @@ def test_degenerate_gizmo_and_empty_sets_do_not_stop_evaluation():
     np.testing.assert_allclose(grown.opacities, 0.4)  # all target splats fade in
     gone = evaluate_stack(s, [Morph(target=empty, amount=0.25)], 0.0).splats
     np.testing.assert_allclose(gone.opacities, 0.6)   # all source splats fade out
+
+
+def test_noise_is_sampled_at_rest_positions_so_it_stays_on_moving_splats():
+    s = make(np.random.default_rng(2).uniform(-1, 1, (40, 3)))
+    twist = Twist(twist=1.0)
+    displace = Displace(amplitude=0.2, speed=0.0, seed=3)
+    dissolve = Reveal(shape="NOISE", progress=0.5, width=0.2, seed=6)
+    twisted = evaluate_stack(s, [twist], 0.0).splats
+    out = evaluate_stack(s, [twist, displace, dissolve], 0.0).splats
+    q = s.positions.astype(np.float64)  # the rest centres, gizmo frame = identity, frequency 1
+    n = np.stack(noise.value_noise(q[:, 0], q[:, 1], q[:, 2], 3, 3, layer=0), 1)
+    np.testing.assert_allclose(out.positions, twisted.positions + 0.2 * n, atol=1e-5)
+    alone = evaluate_stack(s, [dissolve], 0.0).splats  # same pattern as without the motion
+    np.testing.assert_array_equal(out.opacities, alone.opacities)

@@ -1,6 +1,7 @@
 """Displace: move each splat by a seeded, smooth noise vector that evolves in time.
 
-The noise is sampled at the gizmo-local centre times `frequency` (lattice cells per unit).
+The noise is sampled at the gizmo-local rest centre (the splat's position before the stack,
+see stack.py) times `frequency` (lattice cells per unit), so the pattern stays on the splats.
 It evolves by blending independent noise layers: with u = speed * time, k = floor(u) and
 s = smoothstep(u - k), the field is (1 - s) N_k + s N_(k+1), divided by sqrt((1-s)^2 + s^2)
 so its spread stays constant. That is continuous (C1) in time and a pure function of t.
@@ -51,10 +52,10 @@ def noise_vectors(positions: np.ndarray, p: Displace, time: float) -> list[np.nd
     return out
 
 
-def apply(splats, p: Displace, time: float = 0.0):
+def apply(splats, p: Displace, time: float = 0.0, rest=None):
     if not p.active or p.amplitude == 0.0 or splats.count == 0:
         return splats
-    noise = noise_vectors(splats.positions, p, time)
+    noise = noise_vectors(splats.positions if rest is None else rest, p, time)
     positions = np.empty_like(splats.positions)
     gain = F32(p.amount * p.amplitude)
     for axis in range(3):

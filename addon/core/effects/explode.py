@@ -59,7 +59,7 @@ def velocities(positions: np.ndarray, p: Explode) -> list[np.ndarray]:
     return v
 
 
-def apply(splats, p: Explode, time: float = 0.0):
+def apply(splats, p: Explode, time: float = 0.0, rest=None):
     tau = max(0.0, time - p.start)
     if not p.active or tau == 0.0 or splats.count == 0:
         return splats

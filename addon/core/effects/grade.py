@@ -31,11 +31,12 @@ class Grade(EffectParams):
     seed: int = 0
 
 
-def field_values(positions: np.ndarray, p: Grade) -> np.ndarray:
+def field_values(positions: np.ndarray, p: Grade, rest=None) -> np.ndarray:
     if p.field == "HEIGHT":
         return local_columns(positions, p.frame, (2,))[0]
     if p.field == "NOISE":
-        value = noise_field(positions, p.frame, p.frequency, p.seed)[0] * F32(0.5)
+        noise = noise_field(positions if rest is None else rest, p.frame, p.frequency, p.seed)[0]
+        value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
         value += F32(0.5)
         return value
     x, y, z = local_columns(positions, p.frame)
@@ -65,12 +66,12 @@ def gradient(x: np.ndarray, stops) -> list[np.ndarray]:
     return out
 
 
-def apply(splats, p: Grade, time: float = 0.0):
+def apply(splats, p: Grade, time: float = 0.0, rest=None):
     if not p.active or not p.stops or splats.count == 0:
         return splats
     if p.mode not in MODES:
         raise ValueError(f"Grade mode {p.mode!r} is not one of {MODES}")
-    x = field_values(splats.positions, p)
+    x = field_values(splats.positions, p, rest)
     x -= F32(p.low)
     x *= F32(1.0 / (p.high - p.low) if p.high != p.low else 1e12)
     np.clip(x, 0.0, 1.0, out=x)

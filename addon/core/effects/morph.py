@@ -147,7 +147,7 @@ def blend(source: SplatSet, target: SplatSet, pairing: Pairing, t: float) -> Spl
                     axes=source.axes)
 
 
-def apply(splats: SplatSet, p: Morph, time: float = 0.0) -> SplatSet:
+def apply(splats: SplatSet, p: Morph, time: float = 0.0, rest=None) -> SplatSet:
     if not p.enabled or p.target is None or p.amount <= 0.0:
         return splats
     if p.amount >= 1.0:

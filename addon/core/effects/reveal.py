@@ -1,7 +1,8 @@
 """Reveal/Dissolve: a plane, sphere or noise threshold sweeps through the capture.
 
 Field value f per splat (gizmo-local): PLANE = height along the gizmo's z, SPHERE = distance
-from the gizmo's origin, NOISE = value noise mapped to [0, 1]. Splats with f below
+from the gizmo's origin, NOISE = value noise mapped to [0, 1] at the splats' rest positions
+(see stack.py: the pattern stays on the splats as other effects move them). Splats with f below
 `progress` are shown; across a soft edge of `width` they fade (opacity) and shrink (scale,
 by `shrink`), with an optional glow colour added at the edge. `invert` swaps the sides,
 which turns a reveal into a dissolve.
@@ -32,11 +33,12 @@ class Reveal(EffectParams):
     seed: int = 0
 
 
-def field_values(positions: np.ndarray, p: Reveal) -> np.ndarray:
+def field_values(positions: np.ndarray, p: Reveal, rest=None) -> np.ndarray:
     if p.shape == "PLANE":
         return local_columns(positions, p.frame, (2,))[0]
     if p.shape == "NOISE":
-        value = noise_field(positions, p.frame, p.frequency, p.seed)[0] * F32(0.5)
+        noise = noise_field(positions if rest is None else rest, p.frame, p.frequency, p.seed)[0]
+        value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
         value += F32(0.5)
         return value
     x, y, z = local_columns(positions, p.frame)
@@ -59,10 +61,10 @@ def edge_position(f: np.ndarray, p: Reveal) -> np.ndarray:
     return np.clip(s, 0.0, 1.0, out=s)
 
 
-def apply(splats, p: Reveal, time: float = 0.0):
+def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if not p.active or splats.count == 0:
         return splats
-    s = edge_position(field_values(splats.positions, p), p)
+    s = edge_position(field_values(splats.positions, p, rest), p)
     glow = None
     if p.glow_strength > 0.0:
         glow = s * (F32(1.0) - s)

@@ -1,4 +1,12 @@
-"""The effect stack: effects applied in order, each on the previous one's output."""
+"""The effect stack: effects applied in order, each on the previous one's output.
+
+Noise fields (Displace, Reveal and Grade by noise) are sampled at the splats' *rest*
+positions, the stack's input centres, while the splat count is unchanged: the pattern is
+attached to the splats (a dissolve stays on flying fragments), and since the rest centres
+are the same array every frame, the noise is evaluated once and memoized (noise.field)
+however earlier effects move the splats. After a morph that changes the count, the current
+centres are used.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,12 +30,12 @@ class StackResult:
     positions_changed: bool   # False: `splats.positions` is the input's own array
 
 
-def apply_effect(splats: SplatSet, params, time: float) -> SplatSet:
+def apply_effect(splats: SplatSet, params, time: float, rest=None) -> SplatSet:
     try:
         kernel = KERNELS[type(params)]
     except KeyError:
         raise TypeError(f"no effect kernel for {type(params).__name__}") from None
-    return kernel(splats, params, time)
+    return kernel(splats, params, time, rest)
 
 
 def evaluate_stack(splats: SplatSet, effects, time: float) -> StackResult:
@@ -36,6 +44,7 @@ def evaluate_stack(splats: SplatSet, effects, time: float) -> StackResult:
     A pure function of its inputs: no state is carried from one call (frame) to the next.
     """
     out = splats
+    rest = splats.positions
     for params in effects:
-        out = apply_effect(out, params, time)
+        out = apply_effect(out, params, time, rest if out.count == rest.shape[0] else None)
     return StackResult(out, out.positions is not splats.positions)

@@ -60,7 +60,7 @@ def rotate_about_axis(positions, origin, axis, cos, sin) -> np.ndarray:
     return join(v)
 
 
-def apply(splats, p: Twist, time: float = 0.0):
+def apply(splats, p: Twist, time: float = 0.0, rest=None):
     if not p.active or (p.twist == 0.0 and p.swirl == 0.0) or splats.count == 0:
         return splats
     half = angles(splats.positions, p)

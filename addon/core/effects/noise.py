@@ -79,21 +79,29 @@ def _weights(sx, sy, sz) -> np.ndarray:
 
 
 def value_noise(x: np.ndarray, y: np.ndarray, z: np.ndarray, seed: int,
-                channels: int = 1, layer: int = 0) -> list[np.ndarray]:
-    """`channels` independent noise values at the points (x, y, z) in lattice units."""
+                channels: int = 1, layer: int = 0, block: int = 1 << 16) -> list[np.ndarray]:
+    """`channels` independent noise values at the points (x, y, z) in lattice units.
+
+    Evaluated `block` points at a time: the ~20 temporaries of a block (weights, corners,
+    indices) stay in cache and their memory is reused, instead of streaming ~200 MB of
+    fresh arrays per million points through RAM."""
     x, y, z = (np.asarray(c, F32) for c in (x, y, z))
-    ix, sx = _cell(x)
-    iy, sy = _cell(y)
-    iz, sz = _cell(z)
-    index = ix * PERIOD
-    index += iy
-    index *= PERIOD
-    index += iz
-    weights = _weights(sx, sy, sz)
-    out = []
-    for c in range(channels):
-        corners = np.take(corner_table(seed, c, layer), index, axis=0)  # (N, 8), one row per splat
-        out.append(np.einsum("kn,nk->n", weights, corners))
+    n = x.shape[0]
+    tables = [corner_table(seed, c, layer) for c in range(channels)]
+    out = [np.empty(n, F32) for _ in range(channels)]
+    for start in range(0, n, block):
+        part = slice(start, start + block)
+        ix, sx = _cell(x[part])
+        iy, sy = _cell(y[part])
+        iz, sz = _cell(z[part])
+        index = ix * PERIOD
+        index += iy
+        index *= PERIOD
+        index += iz
+        weights = _weights(sx, sy, sz)
+        for table, values in zip(tables, out):
+            corners = np.take(table, index, axis=0)  # (block, 8), one row per point
+            np.einsum("kn,nk->n", weights, corners, out=values[part])
     return out
 
 

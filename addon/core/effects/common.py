@@ -61,6 +61,16 @@ def local_columns(positions: np.ndarray, frame: np.ndarray, axes=(0, 1, 2)) -> l
     return out
 
 
+BLOCK = 1 << 16  # rows per block: a block's temporaries stay in cache
+
+
+def blocks(n: int, block: int = BLOCK):
+    """Row slices covering 0..n: kernels whose work is per splat run block by block, so
+    their many temporaries are cache-resident and reused instead of streamed through RAM."""
+    for start in range(0, n, block):
+        yield slice(start, min(n, start + block))
+
+
 def scale_rows(a: np.ndarray, factor: np.ndarray) -> np.ndarray:
     """a * factor[:, None] for (N, k) a, column by column: numpy broadcasting against a
     small trailing axis costs ~20x more than the same work on contiguous columns."""

@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import (F32, EffectParams, frame_axis, frame_origin, join,
+from .common import (F32, EffectParams, blocks, frame_axis, frame_origin, join,
                      per_splat_random, quat_multiply, split, unit_columns)
 
 MODES = ("CENTER", "DIRECTION")
@@ -30,15 +30,15 @@ class Explode(EffectParams):
     seed: int = 0
 
 
-def spin_axes(n: int, seed: int) -> list[np.ndarray]:
-    """Per-splat random unit spin axes (three columns), a pure function of (n, seed)."""
-    return unit_columns([c.copy() for c in per_splat_random(n, seed, 2)])
+def spin_axes(normals) -> list[np.ndarray]:
+    """Unit spin axes (three columns) from a block of the seeded normals (salt 2)."""
+    return unit_columns([c.copy() for c in normals])
 
 
-def velocities(positions: np.ndarray, p: Explode) -> list[np.ndarray]:
-    """Three (N,) velocity components (object units per second)."""
+def velocities(positions: np.ndarray, p: Explode, jitter) -> list[np.ndarray]:
+    """Three velocity columns (object units per second); jitter: the block's three rows of
+    seeded normals (salt 1)."""
     n = positions.shape[0]
-    jitter = per_splat_random(n, p.seed, 1)
     spread = F32(p.spread / np.sqrt(3.0))
     if p.mode == "CENTER":
         o = frame_origin(p.frame)
@@ -63,20 +63,29 @@ def apply(splats, p: Explode, time: float = 0.0, rest=None):
     tau = max(0.0, time - p.start)
     if not p.active or tau == 0.0 or splats.count == 0:
         return splats
-    v = velocities(splats.positions, p)
+    n = splats.count
+    jitter = per_splat_random(n, p.seed, 1)
+    normals = per_splat_random(n, p.seed, 2) if p.spin != 0.0 else None
     drop = frame_axis(p.frame) * (-0.5 * p.gravity * tau * tau * p.amount)
-    start = split(splats.positions)
-    for i in range(3):
-        v[i] *= F32(p.amount * tau)
-        v[i] += F32(drop[i])
-        v[i] += start[i]
-    changes = {"positions": join(v)}
-    if p.spin != 0.0:
-        # every splat turns by the same angle, each about its own random axis
-        half = 0.5 * p.spin * tau * p.amount
-        turn = [np.full(splats.count, np.cos(half), F32)]
-        turn += [axis * F32(np.sin(half)) for axis in spin_axes(splats.count, p.seed)]
-        changes["rotations"] = quat_multiply(turn, splats.rotations)
+    half = 0.5 * p.spin * tau * p.amount  # every splat turns by this, about its own axis
+    positions = np.empty_like(splats.positions)
+    rotations = np.empty_like(splats.rotations) if normals is not None else None
+    for part in blocks(n):
+        centres = splats.positions[part]
+        v = velocities(centres, p, jitter[:, part])
+        start = split(centres)
+        for i in range(3):
+            v[i] *= F32(p.amount * tau)
+            v[i] += F32(drop[i])
+            v[i] += start[i]
+        positions[part] = join(v)
+        if rotations is not None:
+            turn = [np.full(part.stop - part.start, np.cos(half), F32)]
+            turn += [axis * F32(np.sin(half)) for axis in spin_axes(normals[:, part])]
+            rotations[part] = quat_multiply(turn, splats.rotations[part])
+    changes = {"positions": positions}
+    if rotations is not None:
+        changes["rotations"] = rotations
     if p.fade > 0.0:
         keep = 1.0 - p.amount * (1.0 - np.exp(-p.fade * tau))
         changes["opacities"] = splats.opacities * F32(keep)

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, local_columns
+from .common import F32, EffectParams, blocks, local_columns
 from .noise import field as noise_field
 
 FIELDS = ("HEIGHT", "DISTANCE", "NOISE")
@@ -31,11 +31,11 @@ class Grade(EffectParams):
     seed: int = 0
 
 
-def field_values(positions: np.ndarray, p: Grade, rest=None) -> np.ndarray:
+def field_values(positions: np.ndarray, p: Grade, noise=None) -> np.ndarray:
+    """Field value per splat (fresh array); noise: the memoized noise of these splats."""
     if p.field == "HEIGHT":
         return local_columns(positions, p.frame, (2,))[0]
     if p.field == "NOISE":
-        noise = noise_field(positions if rest is None else rest, p.frame, p.frequency, p.seed)[0]
         value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
         value += F32(0.5)
         return value
@@ -71,14 +71,25 @@ def apply(splats, p: Grade, time: float = 0.0, rest=None):
         return splats
     if p.mode not in MODES:
         raise ValueError(f"Grade mode {p.mode!r} is not one of {MODES}")
-    x = field_values(splats.positions, p, rest)
+    noise = None
+    if p.field == "NOISE":
+        centres = splats.positions if rest is None else rest
+        noise = noise_field(centres, p.frame, p.frequency, p.seed)[0]
+    dc = np.empty_like(splats.sh_dc)
+    for part in blocks(splats.count):
+        _grade_block(splats.sh_dc[part], field_values(splats.positions[part], p,
+                                                       None if noise is None else noise[part]),
+                     p, dc[part])
+    return replace(splats, sh_dc=dc)
+
+
+def _grade_block(sh_dc: np.ndarray, x: np.ndarray, p: Grade, out: np.ndarray) -> None:
     x -= F32(p.low)
     x *= F32(1.0 / (p.high - p.low) if p.high != p.low else 1e12)
     np.clip(x, 0.0, 1.0, out=x)
     gain = F32(p.amount / C0)
-    dc = np.empty_like(splats.sh_dc)
     for c, g in enumerate(gradient(x, p.stops)):
-        base = splats.sh_dc[:, c]
+        base = sh_dc[:, c]
         if p.mode == "ADD":
             delta = g
         else:
@@ -92,5 +103,4 @@ def apply(splats, p: Grade, time: float = 0.0, rest=None):
                 colour *= g
                 delta = colour
         delta *= gain
-        np.add(base, delta, out=dc[:, c])
-    return replace(splats, sh_dc=dc)
+        np.add(base, delta, out=out[:, c])

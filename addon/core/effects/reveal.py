@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, add_rows, local_columns, scale_rows, smoothstep01
+from .common import F32, EffectParams, add_rows, blocks, local_columns, scale_rows, smoothstep01
 from .noise import field as noise_field
 
 SHAPES = ("PLANE", "SPHERE", "NOISE")
@@ -33,11 +33,11 @@ class Reveal(EffectParams):
     seed: int = 0
 
 
-def field_values(positions: np.ndarray, p: Reveal, rest=None) -> np.ndarray:
+def field_values(positions: np.ndarray, p: Reveal, noise=None) -> np.ndarray:
+    """Field value per splat (fresh array); noise: the memoized noise of these splats."""
     if p.shape == "PLANE":
         return local_columns(positions, p.frame, (2,))[0]
     if p.shape == "NOISE":
-        noise = noise_field(positions if rest is None else rest, p.frame, p.frequency, p.seed)[0]
         value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
         value += F32(0.5)
         return value
@@ -64,25 +64,35 @@ def edge_position(f: np.ndarray, p: Reveal) -> np.ndarray:
 def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if not p.active or splats.count == 0:
         return splats
-    s = edge_position(field_values(splats.positions, p, rest), p)
-    glow = None
-    if p.glow_strength > 0.0:
-        glow = s * (F32(1.0) - s)
-        glow *= F32(4.0 * p.amount * p.glow_strength / C0)
-    hidden = smoothstep01(s)  # visibility, in place
-    if not p.invert:
-        hidden -= F32(1.0)
-        hidden *= F32(-1.0)
-    # hidden = 1 - visibility; factor = 1 - amount * hidden
-    changes = {}
-    fade = hidden * F32(-p.amount)
-    fade += F32(1.0)
-    changes["opacities"] = splats.opacities * fade
-    if p.shrink > 0.0:
-        shrink = hidden
-        shrink *= F32(-p.amount * p.shrink)
-        shrink += F32(1.0)
-        changes["scales"] = scale_rows(splats.scales, shrink)
-    if glow is not None:
-        changes["sh_dc"] = add_rows(splats.sh_dc, p.glow_color, glow)
+    noise = None
+    if p.shape == "NOISE":
+        centres = splats.positions if rest is None else rest
+        noise = noise_field(centres, p.frame, p.frequency, p.seed)[0]
+    opacities = np.empty_like(splats.opacities)
+    scales = np.empty_like(splats.scales) if p.shrink > 0.0 else None
+    sh_dc = np.empty_like(splats.sh_dc) if p.glow_strength > 0.0 else None
+    for part in blocks(splats.count):
+        s = edge_position(field_values(splats.positions[part], p,
+                                       None if noise is None else noise[part]), p)
+        if sh_dc is not None:
+            glow = s * (F32(1.0) - s)
+            glow *= F32(4.0 * p.amount * p.glow_strength / C0)
+            sh_dc[part] = add_rows(splats.sh_dc[part], p.glow_color, glow)
+        hidden = smoothstep01(s)  # visibility, in place
+        if not p.invert:
+            hidden -= F32(1.0)
+            hidden *= F32(-1.0)
+        # hidden = 1 - visibility; opacity factor = 1 - amount * hidden
+        fade = hidden * F32(-p.amount)
+        fade += F32(1.0)
+        np.multiply(splats.opacities[part], fade, out=opacities[part])
+        if scales is not None:
+            hidden *= F32(-p.amount * p.shrink)
+            hidden += F32(1.0)
+            scales[part] = scale_rows(splats.scales[part], hidden)
+    changes = {"opacities": opacities}
+    if scales is not None:
+        changes["scales"] = scales
+    if sh_dc is not None:
+        changes["sh_dc"] = sh_dc
     return replace(splats, **changes)

@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import (F32, EffectParams, frame_axis, frame_origin, join, local_columns,
+from .common import (F32, EffectParams, blocks, frame_axis, frame_origin, join, local_columns,
                      rotate_quats_about, split)
 
 
@@ -63,19 +63,21 @@ def rotate_about_axis(positions, origin, axis, cos, sin) -> np.ndarray:
 def apply(splats, p: Twist, time: float = 0.0, rest=None):
     if not p.active or (p.twist == 0.0 and p.swirl == 0.0) or splats.count == 0:
         return splats
-    half = angles(splats.positions, p)
-    half *= F32(0.5)
-    sin_half = np.sin(half)
-    cos_half = np.cos(half, out=half)
-    # full-angle cos/sin from the half angle: two transcendental passes instead of four
-    sin = sin_half * cos_half
-    sin *= F32(2.0)
-    cos = sin_half * sin_half
-    cos *= F32(-2.0)
-    cos += F32(1.0)
     origin, axis = frame_origin(p.frame), frame_axis(p.frame)
-    return replace(
-        splats,
-        positions=rotate_about_axis(splats.positions, origin, axis, cos, sin),
-        rotations=rotate_quats_about(axis, cos_half, sin_half, splats.rotations),
-    )
+    positions = np.empty_like(splats.positions)
+    rotations = np.empty_like(splats.rotations)
+    for part in blocks(splats.count):
+        centres = splats.positions[part]
+        half = angles(centres, p)
+        half *= F32(0.5)
+        sin_half = np.sin(half)
+        cos_half = np.cos(half, out=half)
+        # full-angle cos/sin from the half angle: two transcendental passes instead of four
+        sin = sin_half * cos_half
+        sin *= F32(2.0)
+        cos = sin_half * sin_half
+        cos *= F32(-2.0)
+        cos += F32(1.0)
+        positions[part] = rotate_about_axis(centres, origin, axis, cos, sin)
+        rotations[part] = rotate_quats_about(axis, cos_half, sin_half, splats.rotations[part])
+    return replace(splats, positions=positions, rotations=rotations)

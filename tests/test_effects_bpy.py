@@ -136,14 +136,22 @@ def test_hidden_animated_morph_target_follows_its_keyframes(bpy_empty):
                                atol=1e-5)
 
 
-def test_base_cache_lets_deleted_objects_go(bpy_empty):
+def test_base_cache_lets_deleted_data_go_and_shares_linked_duplicates(bpy_empty):
     from addon.blender import evaluate
 
     bpy = bpy_empty
     doomed = add_object("doomed", grid_splats(seed=5))
-    items_at(bpy, 1)
-    assert "doomed" in evaluate._BASE.entries
+    twin = doomed.copy()  # a linked duplicate: same PointCloud
+    bpy.context.scene.collection.objects.link(twin)
+    twin.location.x = 3.0
+    items = {i.key[0]: i for i in items_at(bpy, 1)}
+    assert items["doomed"].splats.positions is items[twin.name].splats.positions
+    assert ("data", "doomed") in evaluate._BASE.entries
+    data = doomed.data
     bpy.data.objects.remove(doomed)
+    bpy.data.objects.remove(twin)
+    bpy.data.pointclouds.remove(data)
     add_object("fresh", grid_splats(seed=6))
-    items_at(bpy, 1)  # reading the new object prunes the deleted one
-    assert "doomed" not in evaluate._BASE.entries and "fresh" in evaluate._BASE.entries
+    items_at(bpy, 1)  # reading the new object prunes the deleted data
+    assert ("data", "doomed") not in evaluate._BASE.entries
+    assert ("data", "fresh") in evaluate._BASE.entries

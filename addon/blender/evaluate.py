@@ -80,8 +80,9 @@ class BaseCache:
     bumped by depsgraph updates that report the PointCloud's geometry changed. Animated
     objects are excluded from the latter: Blender reports their geometry as updated on
     every re-evaluation, which would re-read the data (~1 s per 1M splats) per frame; the
-    sample covers them. Objects with modifiers are also keyed by frame. Cached arrays are
-    read-only: kernels and renderers never write them.
+    sample covers them. Objects sharing one PointCloud without modifiers (linked duplicates)
+    share one entry; objects with modifiers have their own, also keyed by frame. Cached
+    arrays are read-only: kernels and renderers never write them.
     """
 
     def __init__(self):
@@ -93,8 +94,10 @@ class BaseCache:
         data = obj_eval.data
         data_name = data.original.name_full
         count = len(data.points)
-        frame = depsgraph.scene_eval.frame_float if len(original.modifiers) else None
-        return (original.name_full, data_name, self.versions.get(data_name, 0), count, frame,
+        modified = len(original.modifiers) > 0
+        slot = ("object", original.name_full) if modified else ("data", data_name)
+        frame = depsgraph.scene_eval.frame_float if modified else None
+        return (slot, data_name, self.versions.get(data_name, 0), count, frame,
                 hash(_sample(data, count)))
 
     def get(self, obj_eval, depsgraph):
@@ -112,10 +115,11 @@ class BaseCache:
         return hit[1], hit[0]
 
     def prune(self) -> None:
-        """Let the data of deleted objects go (a million splats hold ~250 MB)."""
-        alive = {obj.name_full for obj in bpy.data.objects}  # only after a read: rare
-        for name in [n for n in self.entries if n not in alive]:
-            self.entries.pop(name, None)
+        """Let the data of deleted objects and PointClouds go (1M splats hold ~250 MB)."""
+        alive = {("object", o.name_full) for o in bpy.data.objects}  # only after a read: rare
+        alive |= {("data", d.name_full) for d in bpy.data.pointclouds}
+        for slot in [s for s in self.entries if s not in alive]:
+            self.entries.pop(slot, None)
 
     def on_update(self, depsgraph) -> None:
         updates = list(depsgraph.updates)

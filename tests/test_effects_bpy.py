@@ -155,3 +155,20 @@ def test_base_cache_lets_deleted_data_go_and_shares_linked_duplicates(bpy_empty)
     items_at(bpy, 1)  # reading the new object prunes the deleted data
     assert ("data", "doomed") not in evaluate._BASE.entries
     assert ("data", "fresh") in evaluate._BASE.entries
+
+
+def test_item_keys_change_exactly_when_the_splats_can(bpy_empty):
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats())
+    twist = _add(bpy, obj, "TWIST")
+    a, b = items_at(bpy, 3)[0], items_at(bpy, 9)[0]
+    assert a.key == b.key and a.positions_key == b.positions_key  # no time dependence
+    np.testing.assert_array_equal(a.splats.positions, b.splats.positions)
+    twist.twist = 0.7
+    obj.update_tag(refresh={"TIME"})
+    c = items_at(bpy, 9)[0]
+    assert c.key != b.key and c.positions_key != b.positions_key
+    _add(bpy, obj, "DISPLACE")  # time-driven: every frame is new
+    d, e = items_at(bpy, 3)[0], items_at(bpy, 9)[0]
+    assert d.key != e.key and d.positions_key != e.positions_key
+    assert not np.array_equal(d.splats.positions, e.splats.positions)

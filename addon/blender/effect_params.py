@@ -16,6 +16,7 @@ from ..core.splats import SplatSet
 from .effect_props import FIELDS
 
 POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
+TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through keyframes
 
 
 def evaluated(obj, depsgraph):

@@ -169,8 +169,9 @@ def _crop(look):
     return box, sphere
 
 
-def _effect_stack(obj_eval, depsgraph, world, fps, source, source_key):
-    """(core params list, signatures of all active effects, of the position-changing ones)."""
+def _effect_stack(obj_eval, depsgraph, world, fps, time, source, source_key):
+    """(core params list, signature of all active effects, of the position-changing ones).
+    A signature holds the time only where an effect depends on it directly."""
     stack, signature, moving = [], [], []
     for effect in obj_eval.splatline.effects:
         if not effect.enabled or effect.amount <= 0.0:
@@ -186,6 +187,8 @@ def _effect_stack(obj_eval, depsgraph, world, fps, source, source_key):
             morph = _MORPH.target(source, source_key, target_splats, target_key, relative)
             extra = (target_key, relative.tobytes())
         stack.append(effect_params.build(effect, frame, fps, morph))
+        if effect.type in effect_params.TIME_TYPES:
+            extra += (time,)
         signature.append(effect_params.signature(effect, frame, extra))
         if effect.type in effect_params.POSITION_TYPES:
             moving.append(signature[-1])
@@ -196,8 +199,8 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     """The RenderItem of one evaluated splat object.
 
     key: (name, base key) while the splats are the base data itself; with crop or effects,
-    (name, base key, time, crop, effect signatures), so equal keys mean equal splats and a
-    renderer's per-key upload cache never shows a stale frame.
+    (name, base key, crop, effect signatures incl. time for time-driven effects), so equal
+    keys mean equal splats and a renderer's per-key upload cache never shows a stale frame.
     """
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     world = np.array(obj_eval.matrix_world, np.float64)
@@ -211,12 +214,13 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     box, sphere = _crop(look)
     splats = core_look.apply_crop(base, box, sphere)
     time, fps = scene_time(depsgraph)
-    stack, signature, moving = _effect_stack(obj_eval, depsgraph, world, fps, splats, base_key)
+    stack, signature, moving = _effect_stack(obj_eval, depsgraph, world, fps, time, splats,
+                                             base_key)
     result = evaluate_stack(splats, stack, time)
     key = (name, base_key)
     if result.splats is not base:
-        key = (name, base_key, time, (box, sphere), signature)
-    positions_key = (name, base_key, time, moving) if result.positions_changed else (name, base_key)
+        key = (name, base_key, (box, sphere), signature)
+    positions_key = (name, base_key, moving) if result.positions_changed else (name, base_key)
     return RenderItem(
         splats=replace(result.splats), world=world, splat_scale=float(look.size),
         opacity_scale=float(look.opacity) if look.visible else 0.0, sh_degree=int(look.max_sh_degree),

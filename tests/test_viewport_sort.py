@@ -99,3 +99,23 @@ def test_culling_keeps_a_large_splat_whose_body_covers_the_view():
     assert list(visible_order([inp], projection_matrix(cam), cam.near, cam.far).order) == [0]
     inp.radius_scale = 0.1  # the splat-scale multipliers shrink it out of view
     assert list(visible_order([inp], projection_matrix(cam), cam.near, cam.far).order) == []
+
+
+def test_large_sets_cull_only_when_it_pays():
+    """Above SMALL splats a sample decides: most off-screen -> culled, a few -> all kept
+    (they would draw nothing anyway; culling them would cost more than drawing)."""
+    from addon.blender.viewport import sorting
+
+    cam = _camera()
+    rng = np.random.default_rng(4)
+    n = 20 * sorting.SMALL
+    inside = rng.uniform(-0.5, 0.5, (n, 3)).astype(np.float32)
+    far_out = inside + np.float32([100.0, 0.0, 0.0])
+    proj = projection_matrix(cam)
+    half = np.concatenate([inside[: n // 2], far_out[n // 2:]])
+    order = visible_order([SortInput.of(half, cam.world_to_camera)], proj, cam.near, cam.far).order
+    assert sorted(order) == list(range(n // 2))
+    few = inside.copy()
+    few[:n // 100] += np.float32([100.0, 0.0, 0.0])  # 1% outside: below CULL_WORTH
+    order = visible_order([SortInput.of(few, cam.world_to_camera)], proj, cam.near, cam.far).order
+    assert order.size == n

@@ -65,33 +65,51 @@ def _rows(m: np.ndarray, projection: np.ndarray, cull: bool) -> np.ndarray:
     return np.stack([depth, pm[0], pm[1], pm[3]])
 
 
+SAMPLE_STRIDE = 64     # culling first looks at every 64th splat ...
+CULL_WORTH = 0.1       # ... and culls them all only if more than this fraction would go
+SMALL = 4096           # below this many splats, always cull (it costs next to nothing)
+
+
+def _outside(soa: np.ndarray, rows: np.ndarray, dilation: float, radius_scale: float) -> np.ndarray:
+    """Mask of splats whose bounding sphere lies wholly outside the grown frustum.
+
+    rows: depth, x_clip, y_clip [, w_clip] (see _rows). A sphere of radius R moves
+    x_clip and w by at most |row| R, so |x| <= grow * w is relaxed by R * reach.
+    """
+    q = rows[:, :3].astype(np.float32) @ soa[:3]
+    q += rows[:, 3:].astype(np.float32)
+    grow = 1.0 + dilation
+    w_row = rows[3] if rows.shape[0] == 4 else rows[0]
+    reach = max(np.linalg.norm(rows[1, :3]), np.linalg.norm(rows[2, :3])) + grow * np.linalg.norm(w_row[:3])
+    lim = q[3] if rows.shape[0] == 4 else q[0]
+    lim *= np.float32(grow)
+    lim += soa[3] * np.float32(radius_scale * reach)
+    m = np.abs(q[1], out=q[1])
+    np.maximum(m, np.abs(q[2], out=q[2]), out=m)
+    return m > lim
+
+
 def _keep(part: SortInput, projection, near, far):
     """(depths, indices or None for all) of one object's splats that survive culling.
 
     Culling is conservative: a splat goes only when its bounding sphere (3 sigma of
     its largest axis) lies wholly outside the grown frustum, so a large splat whose
-    centre is off-screen but whose body covers the view is kept. The near and far
-    tests use the centre, as every renderer does.
+    centre is off-screen but whose body covers the view is kept; culled splats would
+    have drawn nothing. It is skipped when a sample says it would remove too few to
+    pay for itself. The near and far tests use the centre, as every renderer does.
     """
-    rows = _rows(np.asarray(part.local_to_camera, np.float64), projection, part.cull)
-    # rows of q are contiguous: every test below is one streaming pass
-    q = rows[:, :3].astype(np.float32) @ part.soa[:3]
-    q += rows[:, 3:].astype(np.float32)
-    depth = q[0]
+    m = np.asarray(part.local_to_camera, np.float64)
+    depth_row = -m[2]
+    depth = depth_row[:3].astype(np.float32) @ part.soa[:3]
+    depth += np.float32(depth_row[3])
     keep = depth > near
     keep &= depth <= far
     if part.cull:
-        grow = 1.0 + part.dilation
-        w = q[3] if q.shape[0] == 4 else depth
-        lim = w * np.float32(grow)
-        norm_w = np.linalg.norm(rows[-1 if q.shape[0] == 4 else 0, :3])
-        radius = part.soa[3] * np.float32(part.radius_scale)
-        for axis in (1, 2):
-            # |x| <= grow * w relaxed by the sphere: x and w move by at most |row| * R
-            reach = np.float32(np.linalg.norm(rows[axis, :3]) + grow * norm_w)
-            a = np.abs(q[axis], out=q[axis])
-            a -= radius * reach
-            keep &= a <= lim
+        rows = _rows(m, projection, True)
+        n = part.soa.shape[1]
+        sample = part.soa[:, ::SAMPLE_STRIDE] if n > SMALL else None
+        if sample is None or _outside(sample, rows, part.dilation, part.radius_scale).mean() > CULL_WORTH:
+            keep &= ~_outside(part.soa, rows, part.dilation, part.radius_scale)
     if keep.all():
         return depth, None
     idx = np.flatnonzero(keep).astype(np.int32)  # half the bytes for the gathers that follow

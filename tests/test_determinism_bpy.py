@@ -108,3 +108,29 @@ def test_render_frame_57_alone_equals_it_inside_an_animation(bpy_empty, tmp_path
     assert alone.tobytes() == in_sequence.tobytes()
     # the render's own depsgraph sees what the viewport's sees (the animated morph target too)
     assert rendered[FRAME][0] == rendered[FRAME][1] == state(bpy, FRAME)
+
+
+def test_farm_split_frame_57_alone_in_another_process_matches(bpy_empty, tmp_path):
+    """Two fresh processes, as on a farm: one renders 57 alone, one renders 55-58."""
+    import subprocess
+    import sys
+
+    from engine_scene import add_camera, read_exr_parts, setup_render
+
+    bpy = bpy_empty
+    build_scene(bpy)
+    add_camera(bpy, location=(0.0, -6.0, 1.0))
+    setup_render(bpy, 64, 48)
+    bpy.context.scene.frame_set(12)  # the saved current frame must not matter
+    blend = tmp_path / "farm.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    root = str(__import__("pathlib").Path(__file__).resolve().parents[1])
+    for out, frames in (("alone", "57"), ("range", "55-58")):
+        done = subprocess.run([sys.executable, "-m", "addon", "render", str(blend), "--out",
+                               str(tmp_path / out), "--frames", frames, "--format", "EXR"],
+                              cwd=root, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    alone = read_exr_parts(tmp_path / "alone" / "frame_0057.exr")["ViewLayer.Combined"]
+    ranged = read_exr_parts(tmp_path / "range" / "frame_0057.exr")["ViewLayer.Combined"]
+    assert alone[..., 3].max() > 0.5
+    assert alone.tobytes() == ranged.tobytes()

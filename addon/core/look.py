@@ -17,6 +17,7 @@ boundary; `invert` keeps the outside instead. The renderers see it as opacity.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -52,21 +53,32 @@ def _chroma_basis() -> np.ndarray:
     return np.stack([e1, e2], axis=1)
 
 
+_GREY = np.outer(np.ones(3), LUMA)    # c -> Y 1
+_CHROMA = np.eye(3) - _GREY            # c -> u
+_BASIS = _chroma_basis()
+
+
 def hue_matrix(angle: float) -> np.ndarray:
-    grey = np.outer(np.ones(3), LUMA)          # c -> Y 1
-    chroma = np.eye(3) - grey                  # c -> u
-    basis = _chroma_basis()
     c, s = np.cos(angle), np.sin(angle)
     turn = np.array([[c, -s], [s, c]])
-    return grey + basis @ turn @ basis.T @ chroma
+    return _GREY + _BASIS @ turn @ _BASIS.T @ _CHROMA
 
 
 def saturation_matrix(s: float) -> np.ndarray:
-    return (1.0 - s) * np.outer(np.ones(3), LUMA) + s * np.eye(3)
+    return (1.0 - s) * _GREY + s * np.eye(3)
 
 
 def color_matrix(tint=(1.0, 1.0, 1.0), exposure: float = 0.0, saturation: float = 1.0,
                  hue: float = 0.0) -> np.ndarray:
+    """The (3, 4) matrix; a fresh copy (callers may keep or modify it)."""
+    return _color_matrix(tuple(float(t) for t in tint), float(exposure), float(saturation),
+                         float(hue)).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _color_matrix(tint, exposure, saturation, hue) -> np.ndarray:
+    if tint == (1.0, 1.0, 1.0) and exposure == 0.0 and saturation == 1.0 and hue == 0.0:
+        return np.hstack([np.eye(3), np.zeros((3, 1))])  # exactly the identity
     linear = (2.0 ** exposure) * np.diag(np.asarray(tint, np.float64))
     linear = linear @ saturation_matrix(saturation) @ hue_matrix(hue)
     return np.hstack([linear, np.zeros((3, 1))])

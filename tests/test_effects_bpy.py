@@ -172,3 +172,20 @@ def test_item_keys_change_exactly_when_the_splats_can(bpy_empty):
     d, e = items_at(bpy, 3)[0], items_at(bpy, 9)[0]
     assert d.key != e.key and d.positions_key != e.positions_key
     assert not np.array_equal(d.splats.positions, e.splats.positions)
+
+
+def test_added_gizmo_starts_where_the_default_field_is(bpy_empty):
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats())
+    obj.location, obj.rotation_euler = (1.0, 2.0, 0.5), (0.3, 0.0, 0.8)
+    effect = _add(bpy, obj, "REVEAL")
+    effect.progress, effect.edge_width = 0.6, 0.3
+    before = items_at(bpy, 1)[0].splats.opacities
+    with bpy.context.temp_override(object=obj):
+        assert bpy.ops.splatline.effect_add_gizmo() == {"FINISHED"}
+    assert effect.gizmo is not None and effect.gizmo.type == "EMPTY"
+    at_default = items_at(bpy, 1)[0].splats.opacities
+    np.testing.assert_allclose(at_default, before, atol=1e-6)  # same frame, float64 round trip
+    effect.gizmo.location.z += 0.5  # moving the gizmo moves the field
+    moved = items_at(bpy, 1)[0].splats.opacities
+    assert moved.sum() > before.sum()

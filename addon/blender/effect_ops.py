@@ -137,6 +137,30 @@ class SPLATLINE_OT_effect_duplicate(_EffectOperator, bpy.types.Operator):
         return self.finish(context)
 
 
+class SPLATLINE_OT_effect_add_gizmo(_EffectOperator, bpy.types.Operator):
+    """Add an Empty as the active effect's gizmo, where the effect's field is by default
+    (world-aligned at the object's origin), so nothing changes until you move it"""
+    bl_idname = "splatline.effect_add_gizmo"
+    bl_label = "Add Gizmo Empty"
+
+    def execute(self, context):
+        obj = context.object
+        settings = obj.splatline
+        if not 0 <= settings.active_effect < len(settings.effects):
+            return {"CANCELLED"}
+        effect = settings.effects[settings.active_effect]
+        empty = bpy.data.objects.new(f"{obj.name} {effect.name} gizmo", None)
+        empty.empty_display_type = "SPHERE" if effect.type == "REVEAL" and effect.reveal_shape == "SPHERE" \
+            else "ARROWS"
+        empty.location = obj.matrix_world.translation
+        for collection in obj.users_collection:
+            collection.objects.link(empty)
+        if not empty.users_collection:
+            context.scene.collection.objects.link(empty)
+        effect.gizmo = empty
+        return self.finish(context)
+
+
 class SPLATLINE_UL_effects(bpy.types.UIList):
     def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_prop, _index=0):
         icon = next(t[3] for t in TYPES if t[0] == item.type)
@@ -206,12 +230,18 @@ class SPLATLINE_PT_effects(_ObjectPanel, bpy.types.Panel):
             return
         effect = settings.effects[settings.active_effect]
         layout.use_property_split = True
-        for name in ("type", "enabled", "amount", "gizmo") + FIELDS[effect.type]:
+        for name in ("type", "enabled", "amount"):
+            layout.prop(effect, name)
+        row = layout.row(align=True)
+        row.prop(effect, "gizmo")
+        if effect.gizmo is None:
+            row.operator(SPLATLINE_OT_effect_add_gizmo.bl_idname, text="", icon="EMPTY_AXIS")
+        for name in FIELDS[effect.type]:
             layout.prop(effect, name)
 
 
 classes = (SPLATLINE_OT_effect_add, SPLATLINE_OT_effect_remove, SPLATLINE_OT_effect_move,
-           SPLATLINE_OT_effect_duplicate, SPLATLINE_UL_effects, SPLATLINE_PT_look,
+           SPLATLINE_OT_effect_duplicate, SPLATLINE_OT_effect_add_gizmo, SPLATLINE_UL_effects, SPLATLINE_PT_look,
            SPLATLINE_PT_look_crop, SPLATLINE_PT_effects)
 
 

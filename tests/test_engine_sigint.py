@@ -40,8 +40,11 @@ def test_sigint_stops_a_bpy_script_render_between_frames(bpy_empty, testdata, tm
     out = tmp_path / "frames"
     script = tmp_path / "render.py"
     script.write_text(SCRIPT.format(root=ROOT, blend=str(blend), out=str(out / "f_####")))
+    # As from a terminal: SIGINT at its default. pytest-xdist workers ignore SIGINT, and
+    # a child would inherit that; Python then leaves SIGINT ignored, and so does the engine.
     proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 60
         while not (out / "f_0001.png").exists():

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .sorting import SortInput, SortWorker, sort_layout, visible_order
+from .sorting import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
 MODES = {"GAUSSIAN": 0, "POINTS": 1, "OPAQUE": 2}
@@ -82,12 +82,14 @@ class _Packs:
     def __init__(self):
         self.entries: dict = {}
         self.used: dict = {}
+        self.built = 0  # arrays packed so far
 
     def get(self, name: str, item: RenderItem, sources: tuple, build, extra=()):
         ident = (name, item.key, tuple(id(a) for a in sources), extra)
         hit = self.entries.get(ident)
         if hit is None or any(x is not y for x, y in zip(hit[0], sources)):
             hit = (sources, build())
+            self.built += 1
         self.used[ident] = hit
         return ident, hit[1]
 
@@ -145,9 +147,13 @@ class ViewportRenderer:
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], stride),
                                  extra=(tuple(degrees), stride))
         self.gpu.sh_stride = stride
-        soa = [self.packs.get("soa", i, (i.splats.positions, i.splats.scales),
-                              lambda i=i: sort_layout(i.splats.positions, i.splats.scales))
-               for i in items]
+        start, built = time.perf_counter(), self.packs.built
+        soa = [self.packs.get("centres", i, (i.splats.positions,),
+                              lambda i=i: centres_layout(i.splats.positions)) for i in items]
+        radii = [self.packs.get("radius", i, (i.splats.scales,),
+                                lambda i=i: bounding_radius(i.splats.scales))[1] for i in items]
+        if self.packs.built != built:  # packing for the sort counts as upload work
+            seconds += time.perf_counter() - start
         token = tuple(ident for ident, _ in soa)
         if token != self.state.positions_token:
             self.state.positions_token = token
@@ -157,7 +163,7 @@ class ViewportRenderer:
         if seconds:
             self.stats.upload_seconds = seconds
             self.stats.frame_upload += seconds
-        return [a for _, a in soa]
+        return [(a, r) for (_, a), r in zip(soa, radii)]
 
     # -- view ---------------------------------------------------------------
     def _sort_token(self, items, l2c, projection, displays):
@@ -181,8 +187,8 @@ class ViewportRenderer:
                 self._upload_order(done)
         if self._same_view(token, self.state.sorted_token):
             return
-        inputs = [SortInput(p, m, d.cull, d.dilation, i.splat_scale * d.splat_scale)
-                  for p, m, d, i in zip(soa, l2c, displays, items)]
+        inputs = [SortInput(p, m, d.cull, d.dilation, i.splat_scale * d.splat_scale, r)
+                  for (p, r), m, d, i in zip(soa, l2c, displays, items)]
         bits = max(d.key_bits for d in displays)
         have_order = self.state.sorted_token is not None
         if settings.sync_sort or self.worker is None or not have_order:

@@ -18,30 +18,32 @@ from ...core.sort import far_to_near
 class SortInput:
     """One object's part of the sort: centres, bounding radii and where they are placed."""
 
-    soa: np.ndarray              # (4, N) float32, object space: x, y, z rows, then the
-                                 # bounding radius (3 sigma of the largest scale)
+    soa: np.ndarray              # (3, N) float32 centres, object space, one row per axis
     local_to_camera: np.ndarray  # (4, 4) float64 (Blender camera: looks down -z)
     cull: bool = True
     dilation: float = 0.2        # frustum grown by this fraction of its half-size
     radius_scale: float = 1.0    # splat scale multipliers applied to the radii
+    radius: np.ndarray | None = None  # (N,) float32 bounding radius, 3 sigma of the largest scale
 
     @staticmethod
     def of(positions: np.ndarray, local_to_camera, cull: bool = True, dilation: float = 0.2,
            scales: np.ndarray | None = None):
-        return SortInput(sort_layout(positions, scales), local_to_camera, cull, dilation)
+        radius = None if scales is None else bounding_radius(scales)
+        return SortInput(centres_layout(positions), local_to_camera, cull, dilation, 1.0, radius)
 
 
-def sort_layout(positions: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:
-    """(4, N) float32 rows x, y, z, 3 * max(scale): what culling and sorting read."""
-    n = positions.shape[0]
-    soa = np.empty((4, n), np.float32)
-    soa[:3] = np.asarray(positions, np.float32).T
-    if scales is None:
-        soa[3] = 0.0
-    else:
-        np.max(scales, axis=1, out=soa[3])
-        soa[3] *= 3.0
-    return soa
+def centres_layout(positions: np.ndarray) -> np.ndarray:
+    """(3, N) float32: one contiguous row per axis, so every culling test streams."""
+    return np.ascontiguousarray(np.asarray(positions, np.float32).T)
+
+
+def bounding_radius(scales: np.ndarray) -> np.ndarray:
+    """(N,) float32: 3 sigma of each splat's largest axis (NaN/inf stay: shader culls)."""
+    s = np.asarray(scales, np.float32)
+    r = np.maximum(s[:, 0], s[:, 1])
+    np.maximum(r, s[:, 2], out=r)
+    r *= np.float32(3.0)
+    return r
 
 
 @dataclass
@@ -70,20 +72,21 @@ CULL_WORTH = 0.1       # ... and culls them all only if more than this fraction 
 SMALL = 4096           # below this many splats, always cull (it costs next to nothing)
 
 
-def _outside(soa: np.ndarray, rows: np.ndarray, dilation: float, radius_scale: float) -> np.ndarray:
+def _outside(soa: np.ndarray, radius, rows: np.ndarray, dilation: float, radius_scale: float) -> np.ndarray:
     """Mask of splats whose bounding sphere lies wholly outside the grown frustum.
 
     rows: depth, x_clip, y_clip [, w_clip] (see _rows). A sphere of radius R moves
     x_clip and w by at most |row| R, so |x| <= grow * w is relaxed by R * reach.
     """
-    q = rows[:, :3].astype(np.float32) @ soa[:3]
+    q = rows[:, :3].astype(np.float32) @ soa
     q += rows[:, 3:].astype(np.float32)
     grow = 1.0 + dilation
     w_row = rows[3] if rows.shape[0] == 4 else rows[0]
     reach = max(np.linalg.norm(rows[1, :3]), np.linalg.norm(rows[2, :3])) + grow * np.linalg.norm(w_row[:3])
     lim = q[3] if rows.shape[0] == 4 else q[0]
     lim *= np.float32(grow)
-    lim += soa[3] * np.float32(radius_scale * reach)
+    if radius is not None:
+        lim += radius * np.float32(radius_scale * reach)
     m = np.abs(q[1], out=q[1])
     np.maximum(m, np.abs(q[2], out=q[2]), out=m)
     return m > lim
@@ -100,16 +103,18 @@ def _keep(part: SortInput, projection, near, far):
     """
     m = np.asarray(part.local_to_camera, np.float64)
     depth_row = -m[2]
-    depth = depth_row[:3].astype(np.float32) @ part.soa[:3]
+    depth = depth_row[:3].astype(np.float32) @ part.soa
     depth += np.float32(depth_row[3])
     keep = depth > near
     keep &= depth <= far
     if part.cull:
         rows = _rows(m, projection, True)
         n = part.soa.shape[1]
-        sample = part.soa[:, ::SAMPLE_STRIDE] if n > SMALL else None
-        if sample is None or _outside(sample, rows, part.dilation, part.radius_scale).mean() > CULL_WORTH:
-            keep &= ~_outside(part.soa, rows, part.dilation, part.radius_scale)
+        r = part.radius
+        args = (rows, part.dilation, part.radius_scale)
+        if n <= SMALL or _outside(part.soa[:, ::SAMPLE_STRIDE], None if r is None else r[::SAMPLE_STRIDE],
+                                  *args).mean() > CULL_WORTH:
+            keep &= ~_outside(part.soa, r, *args)
     if keep.all():
         return depth, None
     idx = np.flatnonzero(keep).astype(np.int32)  # half the bytes for the gathers that follow

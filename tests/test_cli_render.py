@@ -125,6 +125,12 @@ def test_errors_are_one_line(guitar_blend, tmp_path, args, message):
     assert "Traceback" not in result.stderr
 
 
+def test_out_that_is_a_file_is_one_line(guitar_blend, tmp_path):
+    result = _run(guitar_blend, "--out", guitar_blend)
+    assert result.returncode == 1 and "exists and is not a folder" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
 def test_scene_without_camera_is_one_line(bpy_empty, tmp_path):
     path = tmp_path / "empty.blend"
     bpy_empty.ops.wm.save_as_mainfile(filepath=str(path))

@@ -199,6 +199,8 @@ def _check_args(args) -> None:
     """What can be checked without starting Blender (fast one-line errors)."""
     if not os.path.isfile(args.blend):
         raise UserError(f"{args.blend}: no such .blend file")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise UserError(f"--out {args.out}: exists and is not a folder")
     if args.frames:
         parse_frames(args.frames)
     if args.resolution:

@@ -20,7 +20,7 @@ TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through k
 
 
 def evaluated(obj, depsgraph):
-    """The depsgraph's copy of obj when it has one (hidden objects keep their original)."""
+    """The depsgraph's copy of obj (stale for hidden objects: see world_matrix)."""
     if obj is None:
         return None
     try:
@@ -36,9 +36,10 @@ def shown_in(obj, depsgraph) -> bool:
 
 
 def world_matrix(obj, depsgraph) -> np.ndarray:
-    """obj's world matrix at the depsgraph's frame. An object the depsgraph does not hold
-    (hidden) has no evaluated copy: its matrix is rebuilt from its stored transform and
-    parents (constraints and the animation of hidden objects are not evaluated)."""
+    """obj's world matrix at the depsgraph's frame. For an object the depsgraph does not
+    evaluate (hidden; its evaluated copy is stale) the matrix is rebuilt from its keyframed
+    location/rotation/scale at the frame and its parents' (constraints and drivers of
+    hidden objects are not evaluated)."""
     if shown_in(obj, depsgraph):
         return np.array(evaluated(obj, depsgraph).matrix_world, np.float64)
     local = basis_at(obj, depsgraph.scene_eval.frame_float)

@@ -197,3 +197,24 @@ def test_viewport_draws_after_an_f12_render(bpy_empty, gpu_ready, tmp_path):
     cam = camera_for((0, 0, 0), 64, 48)
     rgba, _ = draw_offscreen(items, cam)
     assert psnr(rgba, reference.render(items, cam, RenderOptions()).rgba) >= 60.0
+
+
+def test_selection_does_not_reread_but_a_look_edit_does(bpy_empty):
+    from addon.blender import viewport
+
+    bpy = bpy_empty
+    obj = _splat_object(bpy, "cap", blob(20, 0, seed=6, centre=(0, 0, 0), spread=0.2))
+    cache = viewport.drawer().items
+    bpy.context.view_layer.update()
+    cache.collect(bpy.context)
+    version = cache.versions["cap"]
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    obj.splatline.display.splat_scale = 3.0  # viewport-only: read each draw, no re-read
+    bpy.context.view_layer.update()
+    assert cache.versions["cap"] == version
+    look = obj.splatline.look
+    name = next(p.identifier for p in look.bl_rna.properties if p.type == "FLOAT" and not p.is_array)
+    setattr(look, name, getattr(look, name) + 0.25)
+    bpy.context.view_layer.update()
+    assert cache.versions["cap"] > version

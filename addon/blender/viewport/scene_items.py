@@ -42,12 +42,43 @@ def time_dependent(obj) -> bool:
     return False
 
 
+def settings_signature(obj, skip=("display",)) -> tuple:
+    """The values of Object.splatline except the viewport-only display options.
+
+    Cheap (a few dozen properties) and enough to tell a look/effect/sequence edit from a
+    selection change, which also sends a depsgraph update but must not re-read 1M splats.
+    """
+    settings = getattr(obj, "splatline", None)
+    modifiers = tuple((m.name, m.type, m.show_viewport) for m in obj.modifiers)
+    own = _group_values(settings, skip) if settings is not None else ()
+    return (getattr(obj.data, "name", None), modifiers, own)
+
+
+def _group_values(group, skip=()) -> tuple:
+    out = []
+    for prop in group.bl_rna.properties:
+        key = prop.identifier
+        if key == "rna_type" or key in skip:
+            continue
+        value = getattr(group, key)
+        if prop.type == "COLLECTION":
+            value = tuple(_group_values(v) for v in value)
+        elif prop.type == "POINTER":
+            value = _group_values(value) if isinstance(value, bpy.types.PropertyGroup) else (
+                getattr(value, "name", None))
+        elif getattr(prop, "is_array", False):
+            value = tuple(value)
+        out.append((key, value))
+    return tuple(out)
+
+
 class SceneItems:
     """Per-object item cache for the draw handler."""
 
     def __init__(self):
         self.versions: dict[str, int] = {}
         self.items: dict[str, tuple] = {}  # name -> (version, RenderItem)
+        self.signatures: dict[str, tuple] = {}  # name -> settings_signature when last read
 
     def invalidate(self, name: str | None = None) -> None:
         names = list(self.versions) if name is None else [name]
@@ -55,18 +86,34 @@ class SceneItems:
             self.versions[n] = self.versions.get(n, 0) + 1
 
     def on_depsgraph(self, depsgraph) -> None:
+        """Bump versions for data changes; skip transform-only and display-only edits.
+
+        Flags Blender sends (bpy 5.0): a transform edit sets only is_updated_transform;
+        a modifier or node change sets geometry without transform; any RNA property
+        edit on the object (display options included) sets all three, and there the
+        settings signature decides whether the data can have changed.
+        """
+        unchanged = set()
         for update in depsgraph.updates:
             ident = update.id
-            if isinstance(ident, bpy.types.Object):
-                if update.is_updated_geometry or not update.is_updated_transform:
-                    self.invalidate(ident.original.name)
-            elif isinstance(ident, bpy.types.PointCloud):
-                self._invalidate_users(ident.original)
+            if not isinstance(ident, bpy.types.Object) or not update.is_updated_geometry:
+                continue
+            name = ident.original.name
+            if update.is_updated_transform and update.is_updated_shading and name in self.items:
+                signature = settings_signature(ident.original)
+                if self.signatures.get(name) == signature:
+                    unchanged.add(name)
+                    continue
+                self.signatures[name] = signature
+            self.invalidate(name)
+        for update in depsgraph.updates:
+            if isinstance(update.id, bpy.types.PointCloud):
+                self._invalidate_users(update.id.original, skip=unchanged)
 
-    def _invalidate_users(self, data) -> None:
+    def _invalidate_users(self, data, skip=()) -> None:
         for name in list(self.items):
             obj = bpy.data.objects.get(name)
-            if obj is not None and obj.data == data:
+            if name not in skip and obj is not None and obj.data == data:
                 self.invalidate(name)
 
     def on_frame(self, scene) -> None:
@@ -96,6 +143,7 @@ class SceneItems:
             cached = self.items.get(name)
             world = np.array(obj_eval.matrix_world, np.float64)
             if cached is None or cached[0] != version:
+                self.signatures[name] = settings_signature(original)
                 # the evaluator's own key: with the arrays' identities it decides what
                 # the renderer re-uploads (an effect that only fades uploads one texture)
                 item = evaluate.item_for(obj_eval, depsgraph)

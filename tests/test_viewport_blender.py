@@ -218,3 +218,35 @@ def test_selection_does_not_reread_but_a_look_edit_does(bpy_empty):
     setattr(look, name, getattr(look, name) + 0.25)
     bpy.context.view_layer.update()
     assert cache.versions["cap"] > version
+
+
+def test_hidden_objects_and_collections_are_not_drawn(bpy_empty):
+    from addon.blender.viewport.scene_items import SceneItems
+
+    bpy = bpy_empty
+    a = _splat_object(bpy, "a", blob(10, 0, seed=8, centre=(0, 0, 0), spread=0.2))
+    coll = bpy.data.collections.new("inner")
+    bpy.context.scene.collection.children.link(coll)
+    b = bpy.data.objects.new("b", a.data.copy())
+    coll.objects.link(b)
+    cache = SceneItems()
+
+    def names():  # the objects collect() returned items for (it forgets the others)
+        bpy.context.view_layer.update()
+        items, _ = cache.collect(bpy.context)
+        assert len(items) == len(cache.items)
+        return sorted(cache.items)
+
+    assert names() == ["a", "b"]
+    layer = bpy.context.view_layer.layer_collection.children["inner"]
+    layer.hide_viewport = True  # the eye icon of the collection
+    assert names() == ["a"]
+    layer.hide_viewport = False
+    layer.exclude = True
+    assert names() == ["a"]
+    layer.exclude = False
+    coll.hide_viewport = True  # the monitor icon (disabled in viewports)
+    assert names() == ["a"]
+    coll.hide_viewport = False
+    a.hide_viewport = True
+    assert names() == ["b"]

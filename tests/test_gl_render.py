@@ -215,3 +215,22 @@ def test_close_releases_and_refuses_more_work(test64):
     with pytest.raises(RuntimeError):
         r.render([item], framing_camera(item, 8, 8))
     r.close()  # idempotent
+
+
+def test_depth_search_step_count_always_converges():
+    """The depth pass's 9-way search (8 probes per step, integer probe ranks as in
+    gl_depth_common.glsl) pins every possible answer rank within search_steps(visible)."""
+    from addon.gl.depthpass import PROBES, search_steps
+
+    for visible in list(range(0, 300)) + [4095, 4096, 90854]:
+        answers = range(visible + 1) if visible < 300 else (0, 1, visible // 3, visible - 1, visible)
+        for answer in answers:
+            lo, hi = 0, visible
+            for _ in range(search_steps(visible)):
+                probes = [lo + (j * (hi - lo)) // (PROBES + 1) for j in range(1, PROBES + 1)]
+                for m in probes:  # T(m) <= 0.5 exactly when m >= answer
+                    if m >= answer:
+                        hi = min(hi, m)
+                    else:
+                        lo = max(lo, m + 1)
+            assert lo == hi == answer

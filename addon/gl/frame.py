@@ -41,6 +41,7 @@ class FrameState:
         self.arrays: dict = {}
         self.targets: dict = {}
         self.last = (None, 0, 0)
+        self.want_depth = True
 
     # -- frame-wide arrays -------------------------------------------------------------
     def _ensure(self, n: int):
@@ -137,7 +138,7 @@ class FrameState:
         for tile in tiles(camera.width, camera.height):
             x0, y0, w, h = tile
             rgba[y0:y0 + h, x0:x0 + w] = self._draw_tile(tile, visible, bg)
-            depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(tile, visible)
+            depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(tile, visible if self.want_depth else 0)
         self.stats["frames"] += 1
         self.last = (order, visible, n)
         return RenderOutput(rgba, depth)

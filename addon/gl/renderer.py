@@ -28,7 +28,9 @@ class OffscreenRenderer:
     were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts.
     """
 
-    def __init__(self, context_factory=_create_context):
+    def __init__(self, context_factory=_create_context, depth_pass: bool = True):
+        """depth_pass=False skips the depth pass (about log2(visible) extra draws) and
+        returns depth filled with +inf: for colour-only uses and timing."""
         self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
                       "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0}
         self._worker = GLWorker(context_factory)
@@ -36,6 +38,7 @@ class OffscreenRenderer:
 
         try:
             self._state = self._worker.call(FrameState, self._worker.ctx, self.stats)
+            self._state.want_depth = bool(depth_pass)
         except BaseException:
             self._worker.close()
             raise

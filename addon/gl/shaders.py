@@ -28,12 +28,14 @@ def read(name: str) -> str:
     return (shader_dir() / name).read_text(encoding="utf-8")
 
 
-def source(name: str, math: bool = True, defines: dict | None = None) -> str:
-    """Complete GLSL source of one stage file."""
+def source(name: str, math: bool = True, defines: dict | None = None, includes=()) -> str:
+    """Complete GLSL source of one stage file (after the math and any includes)."""
     lines = [VERSION]
     for key, value in (defines or {}).items():
         lines.append(f"#define {key} {value}\n")
     if math:
         lines.append(f"#line 1 1\n{read(MATH)}\n")
+    for number, include in enumerate(includes, start=3):
+        lines.append(f"#line 1 {number}\n{read(include)}\n")
     lines.append(f"#line 1 2\n{read(name)}")
     return "".join(lines)

@@ -1,0 +1,179 @@
+"""Error against run time for the offscreen renderer (addon/gl), against the float64
+reference (addon/core/reference.py, without early termination).
+
+    python -m bench render        (or make bench)
+
+Two scenes, one run: guitar (../shared/testdata/guitar.ply, 90,854 splats, SH degree 0)
+and a generated 1M-splat scene (4 objects x 250,000 splats, SH degree 3, overlapping, so
+the global sort interleaves them). Each row is a renderer and setting; PSNR and max abs
+error are over premultiplied RGBA against the reference with the same setting; ms is
+the median of RUNS frames after one warm-up. GL rows are timed colour-only (depth pass
+off) except the row that says so. Sizes are chosen so the whole table takes a few
+minutes on 2 CPU cores with Mesa llvmpipe (software GL); on a real GPU the GL rows are
+orders of magnitude faster, the reference is not.
+"""
+from __future__ import annotations
+
+import pathlib
+import statistics
+import time
+
+import numpy as np
+
+from addon.core import reference
+from addon.core.axes import matrix_for
+from addon.core.camera import Camera, look_at, simple_camera
+from addon.core.formats import read
+from addon.core.scene import RenderItem, RenderOptions
+from addon.core.splats import SplatSet
+
+RUNS = 5
+TESTDATA = pathlib.Path(__file__).resolve().parents[2] / "shared" / "testdata"
+GUITAR_SIZE = (320, 480)
+MILLION_SIZE = (256, 256)   # GL timing frame
+MILLION_CROP = (64, 64)     # error frame: the centre crop (reference time is for it)
+
+
+def psnr(a, b) -> float:
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)
+
+
+# -- scenes -------------------------------------------------------------------------------
+def guitar_scene():
+    splats = read(TESTDATA / "guitar.ply")
+    world = np.eye(4)
+    world[:3, :3] = matrix_for(splats.axes)
+    item = RenderItem(splats, world=world, key=("guitar", 0))
+    pos = splats.positions.astype(np.float64) @ world[:3, :3].T
+    lo, hi = np.percentile(pos, 2, axis=0), np.percentile(pos, 98, axis=0)
+    centre, size = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
+    view = np.array([-1.0, 0.0, -0.15]) / np.linalg.norm([-1.0, 0.0, -0.15])
+    w, h = GUITAR_SIZE
+    cam = simple_camera(w, h, 40.0, look_at(centre - view * size * 1.25, centre),
+                        near=0.01 * size, far=100 * size)
+    return [item], cam, cam
+
+
+def shell_object(n: int, seed: int, centre, radius: float) -> RenderItem:
+    """A noisy sphere shell of small splats with degree-3 view-dependent colour."""
+    rng = np.random.default_rng(seed)
+    s = SplatSet.allocate(n, 3)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    s.positions[:] = d * radius * (1 + rng.normal(0, 0.02, (n, 1)))
+    s.scales[:] = np.exp(rng.normal(np.log(radius * 0.012), 0.4, (n, 3)))
+    q = rng.normal(size=(n, 4))
+    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    s.opacities[:] = rng.beta(2, 1, n)
+    s.sh_dc[:] = d * 0.8 + rng.normal(0, 0.3, (n, 3))
+    s.sh_rest[:] = rng.normal(0, 0.15, s.sh_rest.shape)
+    world = np.eye(4)
+    world[:3, 3] = centre
+    return RenderItem(s, world=world, key=(f"shell{seed}", 0))
+
+
+def million_scene(n: int = 1_000_000):
+    centres = [(-0.6, 0, 0), (0.6, 0.3, 0.1), (0, -0.4, 0.5), (0.1, 0.5, -0.5)]
+    items = [shell_object(n // 4, i, c, 0.7) for i, c in enumerate(centres)]
+    w, h = MILLION_SIZE
+    full = simple_camera(w, h, 50.0, look_at((0.5, -4.0, 1.2), (0, 0, 0)), near=0.1, far=100.0)
+    cw, ch = MILLION_CROP
+    x0, y0 = (w - cw) // 2, (h - ch) // 2
+    crop = Camera(full.world_to_camera, cw, ch, full.fx, full.fy, full.cx - x0, full.cy - y0,
+                  full.near, full.far)
+    return items, full, crop
+
+
+# -- measuring ----------------------------------------------------------------------------
+def median_ms(fn, runs: int = RUNS) -> float:
+    fn()  # warm-up: uploads, shader compilation
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return 1000.0 * statistics.median(times)
+
+
+def with_degree(items, degree):
+    return [RenderItem(i.splats, i.world, i.splat_scale, i.opacity_scale, degree, i.color_matrix, i.key)
+            for i in items]
+
+
+def gl_rows(has_sh: bool):
+    d = RenderOptions()
+    rows = [("gl, GPU sort, 32-bit keys (default)", d, None, False),
+            ("gl, default + depth pass", d, None, True),
+            ("gl, CPU sort", RenderOptions(gpu_sort=False), None, False),
+            ("gl, 16-bit keys", RenderOptions(key_bits=16), None, False),
+            ("gl, antialiased", RenderOptions(antialiased=True), None, False),
+            ("gl, 3 sigma extent", RenderOptions(opacity_aware_extent=False), None, False)]
+    if has_sh:
+        rows += [(f"gl, SH degree {k}", d, k, False) for k in range(3)]
+    return rows
+
+
+def measure(name, items, time_cam, err_cam, colour, with_depth, runs_depth):
+    refs = {}
+
+    def ref_for(options, degree):
+        key = (options.antialiased, options.opacity_aware_extent, degree)
+        if key not in refs:
+            refs[key] = reference.render(with_degree(items, degree) if degree is not None else items,
+                                         err_cam, RenderOptions(antialiased=options.antialiased,
+                                                                opacity_aware_extent=options.opacity_aware_extent))
+        return refs[key]
+
+    out = []
+    t = time.perf_counter()
+    base = ref_for(RenderOptions(), None)
+    ref_ms = 1000.0 * (time.perf_counter() - t)
+    et = reference.render(items, err_cam, RenderOptions(early_termination=True))
+    crop_note = "" if err_cam is time_cam else f" ({err_cam.width}x{err_cam.height} crop)"
+    out.append((f"reference float64, 1 run{crop_note}", float("inf"), 0.0, ref_ms))
+    out.append(("reference + early termination (T<1e-4)", psnr(et.rgba, base.rgba),
+                float(np.abs(et.rgba - base.rgba).max()), float("nan")))
+    has_sh = max(i.splats.sh_degree for i in items) > 0
+    for label, options, degree, depth in gl_rows(has_sh):
+        r = with_depth if depth else colour
+        scene = with_degree(items, degree) if degree is not None else items
+        img = r.render(scene, err_cam, options).rgba
+        ref = ref_for(options, degree)
+        ms = median_ms(lambda: r.render(scene, time_cam, options), runs_depth if depth else RUNS)
+        out.append((label, psnr(img, ref.rgba), float(np.abs(img - ref.rgba).max()), ms))
+    return out
+
+
+def print_table(title, rows):
+    print(f"\n{title}")
+    print(f"{'renderer / setting':44s} {'PSNR dB':>8s} {'max abs':>9s} {'ms/frame':>10s}")
+    for label, p, e, ms in rows:
+        ps = "inf" if np.isinf(p) else f"{p:.1f}"
+        mss = "-" if np.isnan(ms) else f"{ms:.0f}"
+        print(f"{label:44s} {ps:>8s} {e:9.2e} {mss:>10s}", flush=True)
+
+
+def main():
+    from addon.gl import OffscreenRenderer
+
+    start = time.perf_counter()
+    with OffscreenRenderer(depth_pass=False) as colour, OffscreenRenderer() as depth:
+        print(f"GL: {colour.gl_info.get('GL_RENDERER')} ({colour.gl_info.get('GL_VERSION')})")
+        items, time_cam, err_cam = guitar_scene()
+        w, h = GUITAR_SIZE
+        print_table(f"guitar, 90,854 splats, SH 0, {w}x{h}; error and time on the same frame; "
+                    f"gl ms = median of {RUNS}",
+                    measure("guitar", items, time_cam, err_cam, colour, depth, RUNS))
+        items, time_cam, err_cam = million_scene()
+        w, h = MILLION_SIZE
+        cw, ch = MILLION_CROP
+        print_table(f"generated, 1,000,000 splats in 4 objects, SH 3; gl ms = median of {RUNS} on the "
+                    f"full {w}x{h} frame; error on its centre {cw}x{ch} crop (gl and reference "
+                    f"render the same crop camera)",
+                    measure("million", items, time_cam, err_cam, colour, depth, RUNS))
+    print(f"\n(whole table: {time.perf_counter() - start:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()

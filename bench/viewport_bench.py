@@ -5,7 +5,9 @@ the drawing path of ViewportRenderer into a small GPUOffScreen, timing the CPU s
   sort    cull + depth keys + radix sort, on the drawing thread (inline mode, so the
           cost is visible; the draw handler moves it to the worker thread)
   upload  packing + texture uploads (splat data, order, per-object table)
-  total   ViewportRenderer.prepare(): everything draw() does before the draw call
+  total   ViewportRenderer.prepare(): everything draw() does before the draw call (wall)
+  cpu     the same in process CPU time: on a machine shared with other jobs the wall
+          time includes waiting for a core, the CPU time does not
 Cases "orbit" sorts inline (the full CPU cost per frame); "orbit-bg" is the draw
 handler's mode: the sort runs on the worker thread, the drawing thread only uploads
 each finished order (frames 33 ms apart, untimed), so its sort column is 0.
@@ -32,7 +34,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 SIZES = (100_000, 1_000_000, 3_000_000)
-FRAMES = {"still": 15, "orbit": 7, "orbit-bg": 7, "data": 4}
+FRAMES = {"still": 15, "orbit": 15, "orbit-bg": 7, "data": 5}
 FRAME_GAP = 0.033  # seconds between orbit-bg frames (not timed): the worker sorts meanwhile
 WIDTH, HEIGHT = 64, 48
 DEGREE = 1
@@ -67,7 +69,7 @@ def _projection():
     return projection_matrix(simple_camera(WIDTH, HEIGHT, 50.0, np.eye(4), near=0.1, far=100.0))
 
 
-def _run(case: str, item, renderer, proj) -> list[tuple[float, float, float]]:
+def _run(case: str, item, renderer, proj) -> list[tuple[float, float, float, float]]:
     from addon.blender.viewport import DrawSettings
 
     settings = DrawSettings(sync_sort=case != "orbit-bg")
@@ -81,13 +83,13 @@ def _run(case: str, item, renderer, proj) -> list[tuple[float, float, float]]:
                                                  .astype(np.float32), 0, 1),
                             positions=s.positions + np.float32(1e-3) * np.float32(frame))
             item = replace(item, splats=moved)  # same key, new arrays: as the effect stack does
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         renderer.prepare([item], view, proj, (WIDTH, HEIGHT), settings)
-        total = time.perf_counter() - start
+        total, cpu = time.perf_counter() - start, time.process_time() - cpu
         if case == "orbit-bg":
             time.sleep(FRAME_GAP)
         if frame:
-            rows.append((renderer.stats.frame_sort, renderer.stats.frame_upload, total))
+            rows.append((renderer.stats.frame_sort, renderer.stats.frame_upload, total, cpu))
     return rows
 
 
@@ -131,7 +133,7 @@ def main() -> None:
     proj = _projection()
     print(f"viewport drawing path, CPU ms per frame (medians), SH degree {DEGREE}, "
           f"{WIDTH}x{HEIGHT} GPUOffScreen, 16-bit keys, inline sort")
-    print(f"{'splats':>9} {'case':>8} {'sort':>8} {'upload':>8} {'total':>8} {'argsort':>8} "
+    print(f"{'splats':>9} {'case':>8} {'sort':>8} {'upload':>8} {'total':>8} {'cpu':>8} {'argsort':>8} "
           f"{'sort/argsort':>12} {'draw*':>9}")
     verdicts = []
     for n in SIZES:
@@ -145,9 +147,9 @@ def main() -> None:
                 rows = _run(case, item, renderer, proj)
             off.free()
             renderer.close()
-            sort, upload, total = (1e3 * statistics.median(c) for c in zip(*rows))
+            sort, upload, total, cpu = (1e3 * statistics.median(c) for c in zip(*rows))
             ratio = f"{sort / base:.2f}" if sort else "-"
-            print(f"{n:>9,} {case:>8} {sort:>8.2f} {upload:>8.2f} {total:>8.2f} {base:>8.1f} {ratio:>12} "
+            print(f"{n:>9,} {case:>8} {sort:>8.2f} {upload:>8.2f} {total:>8.2f} {cpu:>8.2f} {base:>8.1f} {ratio:>12} "
                   f"{draw_ms:>9.1f}", flush=True)
             if case == "still":
                 verdicts.append((f"still {n:,}: total < 1 ms", total < 1.0))
@@ -155,6 +157,8 @@ def main() -> None:
                 verdicts.append((f"orbit {n:,}: sort <= 0.5x argsort", sort <= 0.5 * base))
                 if n == 1_000_000:
                     verdicts.append(("orbit 1M: total <= 33 ms", total <= 33.0))
+                    verdicts.append(("orbit 1M: cpu <= 33 ms (process CPU time, robust to a loaded machine)",
+                                     cpu <= 33.0))
     print("draw*: one draw call on this machine's llvmpipe (software GPU), not in total")
     for goal, ok in verdicts:
         print(f"  {'met ' if ok else 'MISSED'}  {goal}")

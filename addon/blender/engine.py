@@ -33,11 +33,11 @@ class _ReferenceRenderer:
         pass
 
 
-def _make_renderer(kind: str):
+def _make_renderer(kind: str, depth: bool):
     if kind == "REFERENCE":
         return _ReferenceRenderer()
     from ..gl import OffscreenRenderer
-    return OffscreenRenderer()
+    return OffscreenRenderer(depth_pass=depth)
 
 
 class _RendererHolder:
@@ -49,12 +49,13 @@ class _RendererHolder:
         self._renderer = None
         self._kind = None
 
-    def get(self, kind: str):
+    def get(self, kind: str, depth: bool):
+        """The renderer for kind; depth=False skips the GL depth pass (no Z pass wanted)."""
         with self._lock:
-            if self._renderer is None or self._kind != kind:
+            if self._renderer is None or self._kind != (kind, depth):
                 self._close_locked()
-                self._renderer = _make_renderer(kind)
-                self._kind = kind
+                self._renderer = _make_renderer(kind, depth)
+                self._kind = (kind, depth)
             return self._renderer
 
     @property
@@ -118,7 +119,9 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         items = collect_items(depsgraph)
         self._check()
         self.update_stats("", f"Splatline | rendering {sum(i.splats.count for i in items):,} splats")
-        renderer = _HOLDER.get(settings.renderer)
+        # One setting for the whole scene, so view layers do not swap renderers mid-job.
+        want_depth = any(layer.use and layer.use_pass_z for layer in scene.view_layers)
+        renderer = _HOLDER.get(settings.renderer, want_depth)
         out = renderer.render(items, region_camera(full, region), settings.options())
         self._check()
         rgba = to_scene_linear(out.rgba)

@@ -37,6 +37,7 @@ def _scene(bpy):
 
     scene, _, _ = guitar_scene(bpy, ROOT.parent / "shared" / "testdata", [1, 2, 3], 64, 64, count=0)
     scene.camera.animation_data_clear()  # every frame the same view, so rows compare
+    scene.view_layers[0].use_pass_z = True  # the engine then runs the GL depth pass, as here
     return scene
 
 

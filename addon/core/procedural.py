@@ -12,8 +12,23 @@ from .sh import C0
 from .splats import AXES_RFU, SplatSet
 
 
-def torus_knot(n: int, degree: int = 3, p: int = 2, q: int = 3, seed: int = 0) -> SplatSet:
-    """A (p, q) torus knot tube about 2 units across, coloured by a hue ramp along the curve."""
+# Splats per surface area: each splat's 1-sigma disc area times the count, over the surface
+# area, is this many layers. Trained captures sit around here; a fixed splat size instead
+# makes a dense set hundreds of layers deep, which costs fill rate for no visible change.
+COVERAGE = 6.0
+_KNOT_AREA = 17.7  # (2, 3) knot: curve length 10.06 x tube circumference 2*pi*0.28
+_DISC_ASPECT = 1.4  # splats are 1.4 x 1.0 x 0.08 of their size
+
+
+def disc_size(n: int, area: float, coverage: float = COVERAGE) -> float:
+    """Splat size for n splats covering `area` about `coverage` layers deep."""
+    return float(np.sqrt(coverage * area / (max(n, 1) * np.pi * _DISC_ASPECT)))
+
+
+def torus_knot(n: int, degree: int = 3, p: int = 2, q: int = 3, seed: int = 0,
+               size: float | None = None) -> SplatSet:
+    """A (p, q) torus knot tube about 2 units across, coloured by a hue ramp along the curve.
+    size: splat size; default disc_size for the (2, 3) knot's area, so any n looks alike."""
     rng = np.random.default_rng(seed)
     t = rng.uniform(0.0, 2.0 * np.pi, n)
     phi = rng.uniform(0.0, 2.0 * np.pi, n)
@@ -27,11 +42,13 @@ def torus_knot(n: int, degree: int = 3, p: int = 2, q: int = 3, seed: int = 0) -
     positions = centre + tube * normal
     hue = (t / (2.0 * np.pi) * 2.0) % 1.0
     rgb = _hue_to_rgb(hue) * (0.55 + 0.45 * (0.5 + 0.5 * np.cos(phi)))[:, None]
-    return _surface_splats(positions, normal, tangent, rgb, degree, rng, size=0.022)
+    size = disc_size(n, _KNOT_AREA) if size is None else size
+    return _surface_splats(positions, normal, tangent, rgb, degree, rng, size=size)
 
 
-def planet(n: int, degree: int = 3, seed: int = 1) -> SplatSet:
-    """A unit-radius sphere with noise continents, oceans and polar caps."""
+def planet(n: int, degree: int = 3, seed: int = 1, size: float | None = None) -> SplatSet:
+    """A unit-radius sphere with noise continents, oceans and polar caps.
+    size: splat size; default disc_size for the sphere's area."""
     rng = np.random.default_rng(seed)
     normal = rng.normal(size=(n, 3))
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
@@ -44,7 +61,8 @@ def planet(n: int, degree: int = 3, seed: int = 1) -> SplatSet:
     bad = np.linalg.norm(tangent, axis=1) < 1e-6
     tangent[bad] = [1.0, 0.0, 0.0]
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
-    return _surface_splats(positions, normal, tangent, rgb, degree, rng, size=0.03)
+    size = disc_size(n, 4.0 * np.pi) if size is None else size
+    return _surface_splats(positions, normal, tangent, rgb, degree, rng, size=size)
 
 
 def _knot_curve(t: np.ndarray, p: int, q: int) -> np.ndarray:

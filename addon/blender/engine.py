@@ -122,30 +122,34 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         # One setting for the whole scene, so view layers do not swap renderers mid-job.
         want_depth = any(layer.use and layer.use_pass_z for layer in scene.view_layers)
         renderer = _HOLDER.get(settings.renderer, want_depth)
-        out = renderer.render(items, region_camera(full, region), settings.options())
-        self._check()
-        rgba = to_scene_linear(out.rgba)
-        if not r.film_transparent:  # the evaluated world: its colour may be animated
-            rgba = composite_over(rgba, _world_colour(depsgraph.scene_eval))
-        self._write(depsgraph, region, rgba, blender_depth(out.depth))
-
-    def _write(self, depsgraph, region, rgba, depth):
         result = self.begin_result(0, 0, region.width, region.height,
                                    layer=depsgraph.view_layer.name)
         try:
             if (result.resolution_x, result.resolution_y) != (region.width, region.height):
                 raise ValueError(f"render result is {result.resolution_x}x{result.resolution_y}, "
                                  f"expected the region {region.width}x{region.height}")
-            passes = result.layers[0].passes
-            passes["Combined"].rect.foreach_set(bottom_up(rgba))
-            depth_pass = passes.get("Depth")
-            if depth_pass is not None:
-                depth_pass.rect.foreach_set(bottom_up(depth))
+            # One view, or each eye of a stereo/multi-view render.
+            for view in [v.name for v in result.views]:
+                self.active_view_set(view)
+                camera = self._view_camera(scene, camera_obj, depsgraph)
+                out = renderer.render(items, region_camera(camera, region), settings.options())
+                self._check()
+                rgba = to_scene_linear(out.rgba)
+                if not r.film_transparent:  # the evaluated world: its colour may be animated
+                    rgba = composite_over(rgba, _world_colour(depsgraph.scene_eval))
+                _write_view(result, view, rgba, blender_depth(out.depth))
         except BaseException:
             self.end_result(result, cancel=True)
             raise
         self.end_result(result)
         self.update_progress(1.0)
+
+    def _view_camera(self, scene, camera_obj, depsgraph):
+        """The camera of the active view: Blender offsets it per eye in multi-view renders."""
+        obj = camera_obj.evaluated_get(depsgraph)
+        return camera_from_blender(scene, camera_obj, depsgraph,
+                                   matrix_world=self.camera_model_matrix(obj),
+                                   shift_x=self.camera_shift_x(obj))
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
@@ -181,6 +185,14 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             gpu.state.depth_test_set("NONE")
             viewport.draw_items(items, rv3d.view_matrix, rv3d.window_matrix,
                                 (region.width, region.height))
+
+
+def _write_view(result, view, rgba, depth):
+    passes = result.layers[0].passes
+    passes.find_by_name("Combined", view).rect.foreach_set(bottom_up(rgba))
+    depth_pass = passes.find_by_name("Depth", view)
+    if depth_pass is not None:
+        depth_pass.rect.foreach_set(bottom_up(depth))
 
 
 def _world_colour(scene):

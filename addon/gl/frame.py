@@ -123,6 +123,7 @@ class FrameState:
     def render(self, items: list[RenderItem], camera: Camera, options: RenderOptions) -> RenderOutput:
         if options.key_bits not in (16, 32):
             raise ValueError(f"key bits must be 16 or 32, not {options.key_bits}")
+        self.cache.begin_frame()
         objects = [self.cache.get(item) for item in items]
         self.cache.retain({item.key for item in items if item.key is not None})
         n = sum(obj.count for obj in objects)

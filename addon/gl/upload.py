@@ -59,6 +59,7 @@ class UploadCache:
         self.ctx = ctx
         self.stats = stats
         self.objects: dict = {}
+        self.transient: list = []  # key None: uploaded for one frame, freed at the next
         # a block may not exceed this; 180 bytes/splat (degree-3 SH) sets the part size
         self.max_block = int(ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE") or (1 << 27))
 
@@ -103,10 +104,18 @@ class UploadCache:
             obj = self._upload_geometry(item)
             if item.key is not None:
                 self.objects[item.key] = obj
+            else:
+                self.transient.append(obj)
         degree = item.effective_sh_degree
         if degree > 0 and obj.rest_coeffs < sh_coeff_count(degree):
             self._upload_rest(obj, item, degree)
         return obj
+
+    def begin_frame(self):
+        """Free the uncached (key None) objects of the previous frame."""
+        for obj in self.transient:
+            obj.release()
+        self.transient = []
 
     def retain(self, keys: set):
         """Free the objects not drawn this frame."""
@@ -114,6 +123,7 @@ class UploadCache:
             self.objects.pop(key).release()
 
     def release(self):
+        self.begin_frame()
         for obj in self.objects.values():
             obj.release()
         self.objects.clear()

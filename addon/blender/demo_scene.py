@@ -101,10 +101,10 @@ def _add_target(bounds: Bounds, count: int, degree: int):
 
 
 def showcase_frame(frames: int) -> int:
-    """The morph's midpoint: knot and planet both visible, for the README still."""
-    timeline = _Timeline(frames)
-    start, end = timeline.act("morph")
-    return (start + end) // 2
+    """The frame for the README still: the reveal three quarters done, its glowing edge
+    sweeping over the knot (what splat effects do, in one picture)."""
+    start, end = _Timeline(frames).act("reveal")
+    return start + round(0.75 * (end - start))
 
 
 class _Timeline:

@@ -7,7 +7,7 @@ in place of the knot (its --splats most important splats); the planet is scaled 
 
 Writes DIR/demo.blend (an ordinary, editable Splatline scene), renders it with the
 SPLATLINE engine to DIR/exr/ (half-float multilayer EXR, scene-linear), and makes
-DIR/demo.mp4 (H.264) and DIR/demo.png (the morph's midpoint) from those EXRs through
+DIR/demo.mp4 (H.264) and DIR/demo.png (a still of the reveal) from those EXRs through
 Blender's compositor, so no splat is rendered twice.
 
 The defaults fit the 10-minute budget of a shared 2-core CPU machine rendering through

@@ -1,9 +1,8 @@
 // Offscreen renderer, stage "draw": one instanced screen-aligned quad per sorted splat.
-// Instance k draws order[k] (back to front). Pixels are top-left-origin, y down.
-layout(std430, binding = 0) readonly buffer Order { uint order[]; };
-layout(std430, binding = 3) readonly buffer Rec0 { vec4 rec0[]; };
-layout(std430, binding = 4) readonly buffer Rec1 { vec4 rec1[]; };
-layout(std430, binding = 5) readonly buffer Rec2 { vec4 rec2[]; };
+// Instance k draws the k-th splat back to front. Pixels are top-left-origin, y down.
+// GL 4.3: records in storage buffers, order[k] from the sort. GL 3.3 fallback
+// (SL_TEXTURE_RECORDS): records already sorted on the CPU, in RGBA32F textures.
+#include_records
 
 uniform vec2 u_frame;    // full frame width, height
 uniform vec4 u_tile;     // x0, y0, width, height of the rendered tile, in frame pixels
@@ -16,11 +15,10 @@ flat out float v_rank;   // front-to-back rank (depth pass)
 
 void main()
 {
-    uint idx = order[gl_InstanceID];
-    vec4 r0 = rec0[idx], r1 = rec1[idx];
+    vec4 r0 = record(0, uint(gl_InstanceID)), r1 = record(1, uint(gl_InstanceID));
     v_centre = r0.xy;
     v_conic = vec3(r0.zw, r1.x);
-    v_colour = vec4(rec2[idx].rgb, r1.w);
+    v_colour = vec4(record(2, uint(gl_InstanceID)).rgb, r1.w);
     v_rank = float(u_visible - 1u - uint(gl_InstanceID));
     vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1)) * 2.0 - 1.0;
     // clamp to the tile (+1 px) so huge quads cost no more than the frame

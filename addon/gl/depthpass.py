@@ -33,17 +33,18 @@ def search_steps(visible: int) -> int:
 
 
 class DepthPass:
-    def __init__(self, ctx):
+    def __init__(self, ctx, records: str = "ssbo"):
         self.ctx = ctx
         self.splat = ctx.program(
-            vertex_shader=shaders.source("gl_splat.vert"),
-            fragment_shader=shaders.source("gl_depth_splat.frag", includes=COMMON))
-        full = shaders.source("gl_fullscreen.vert", math=False)
+            vertex_shader=shaders.source("gl_splat.vert", records=records),
+            fragment_shader=shaders.source("gl_depth_splat.frag", includes=COMMON, records=records))
+        full = shaders.source("gl_fullscreen.vert", math=False, records=records)
         self.update = ctx.program(
-            vertex_shader=full,
-            fragment_shader=shaders.source("gl_depth_update.frag", math=False, includes=COMMON))
+            vertex_shader=full, fragment_shader=shaders.source(
+                "gl_depth_update.frag", math=False, includes=COMMON, records=records))
         self.resolve = ctx.program(
-            vertex_shader=full, fragment_shader=shaders.source("gl_depth_resolve.frag", math=False))
+            vertex_shader=full,
+            fragment_shader=shaders.source("gl_depth_resolve.frag", math=False, records=records))
         self.vaos = {p: ctx.vertex_array(p, []) for p in (self.splat, self.update, self.resolve)}
         self.targets: dict = {}
         self.steps = 0  # search steps of the last frame (for stats and tests)

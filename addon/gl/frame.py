@@ -11,6 +11,7 @@ from ..core.camera import Camera
 from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
 from .depthpass import DepthPass
+from .fallback import RecordTextures, cpu_records
 from .sorting import RadixSorter, cpu_order
 from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform
 from .upload import UploadCache
@@ -22,21 +23,25 @@ FRAME_ARRAYS = {"rec0": 16, "rec1": 16, "rec2": 16, "depth": 4,
 
 
 class FrameState:
-    def __init__(self, ctx, stats: dict):
-        if ctx.version_code < 430:
-            raise RuntimeError(f"the offscreen renderer needs OpenGL 4.3 compute shaders; "
-                               f"this context is {ctx.version_code}")
+    def __init__(self, ctx, stats: dict, compute: bool | None = None):
+        """compute: None = compute shaders where GL >= 4.3; False = the GL 3.3 fallback."""
+        if ctx.version_code < 330:
+            raise RuntimeError(f"the offscreen renderer needs OpenGL 3.3; this context is "
+                               f"{ctx.version_code}")
+        self.compute = ctx.version_code >= 430 and compute is not False
+        records = "ssbo" if self.compute else "texture"
         self.ctx = ctx
         self.stats = stats
         self.cache = UploadCache(ctx, stats)
-        self.sorter = RadixSorter(ctx)
-        self.depth_pass = DepthPass(ctx)
-        self.preprocess = ctx.compute_shader(shaders.source("gl_preprocess.comp"))
-        self.draw = ctx.program(vertex_shader=shaders.source("gl_splat.vert"),
-                                fragment_shader=shaders.source("gl_splat.frag"))
+        self.sorter = RadixSorter(ctx) if self.compute else None
+        self.record_textures = None if self.compute else RecordTextures(ctx)
+        self.depth_pass = DepthPass(ctx, records)
+        self.preprocess = ctx.compute_shader(shaders.source("gl_preprocess.comp")) if self.compute else None
+        self.draw = ctx.program(vertex_shader=shaders.source("gl_splat.vert", records=records),
+                                fragment_shader=shaders.source("gl_splat.frag", records=records))
         self.draw_vao = ctx.vertex_array(self.draw, [])
-        self.range = ctx.buffer(reserve=12)
-        self.dummy = ctx.buffer(reserve=16)
+        self.range = ctx.buffer(reserve=12) if self.compute else None
+        self.dummy = ctx.buffer(reserve=16) if self.compute else None
         self.capacity = 0
         self.arrays: dict = {}
         self.targets: dict = {}
@@ -119,10 +124,8 @@ class FrameState:
         data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
         return data.reshape(h, w, 4)[::-1]  # GL rows are bottom-up
 
-    # -- one frame ---------------------------------------------------------------------
-    def render(self, items: list[RenderItem], camera: Camera, options: RenderOptions) -> RenderOutput:
-        if options.key_bits not in (16, 32):
-            raise ValueError(f"key bits must be 16 or 32, not {options.key_bits}")
+    def _gpu_prepare(self, items, camera, options):
+        """Upload, preprocess and sort with compute shaders; bind the frame's records."""
         self.cache.begin_frame()
         objects = [self.cache.get(item) for item in items]
         self.cache.retain({item.key for item in items if item.key is not None})
@@ -133,6 +136,20 @@ class FrameState:
         a = self.arrays
         for binding, buf in ((B_ORDER, order), (B_REC0, a["rec0"]), (B_REC1, a["rec1"]), (B_REC2, a["rec2"])):
             buf.bind_to_storage_buffer(binding)
+        return order, visible, n
+
+    # -- one frame ---------------------------------------------------------------------
+    def render(self, items: list[RenderItem], camera: Camera, options: RenderOptions) -> RenderOutput:
+        if options.key_bits not in (16, 32):
+            raise ValueError(f"key bits must be 16 or 32, not {options.key_bits}")
+        if self.compute:
+            order, visible, n = self._gpu_prepare(items, camera, options)
+        else:
+            records, visible = cpu_records(items, camera, options)
+            self.record_textures.upload(records, self.stats)
+            self.record_textures.bind(self.draw, self.depth_pass.splat, self.depth_pass.resolve)
+            self.stats["cpu_sorts"] += 1
+            order, n = None, sum(item.splats.count for item in items)
         rgba = np.empty((camera.height, camera.width, 4), np.float32)
         depth = np.empty((camera.height, camera.width), np.float32)
         bg = tuple(float(v) for v in options.background)
@@ -147,27 +164,34 @@ class FrameState:
     def last_order(self) -> np.ndarray:
         """Global indices (concatenated items) of the last frame, back to front."""
         order, visible, _ = self.last
+        if order is None:
+            raise RuntimeError("the GL 3.3 fallback keeps no order on the GPU")
         return np.frombuffer(order.read(size=4 * visible), np.uint32).copy() if visible else \
             np.zeros(0, np.uint32)
 
     def last_depths(self) -> np.ndarray:
         """Sort depth per global splat of the last frame: view depth minus the frame's
         anchor (the first item's origin depth); +inf where culled."""
-        _, _, n = self.last
+        order, _, n = self.last
+        if order is None and n:
+            raise RuntimeError("the GL 3.3 fallback keeps no depths on the GPU")
         return np.frombuffer(self.arrays["depth"].read(size=4 * n), np.float32).copy() if n else \
             np.zeros(0, np.float32)
 
     def release(self):
         self.cache.release()
-        self.sorter.release()
-        self.depth_pass.release()
+        for owner in (self.sorter, self.record_textures, self.depth_pass):
+            if owner is not None:
+                owner.release()
         for buf in list(self.arrays.values()) + [self.range, self.dummy]:
-            buf.release()
+            if buf is not None:
+                buf.release()
         for tex, fbo in self.targets.values():
             fbo.release()
             tex.release()
         for obj in (self.draw_vao, self.draw, self.preprocess):
-            obj.release()
+            if obj is not None:
+                obj.release()
 
 
 def tiles(width: int, height: int):

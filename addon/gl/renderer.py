@@ -17,8 +17,8 @@ def _create_context():
     import moderngl
 
     if sys.platform.startswith("linux"):
-        return moderngl.create_context(standalone=True, backend="egl", require=430)
-    return moderngl.create_context(standalone=True, require=430)
+        return moderngl.create_context(standalone=True, backend="egl", require=330)
+    return moderngl.create_context(standalone=True, require=330)
 
 
 class OffscreenRenderer:
@@ -28,16 +28,20 @@ class OffscreenRenderer:
     were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts.
     """
 
-    def __init__(self, context_factory=_create_context, depth_pass: bool = True):
-        """depth_pass=False skips the depth pass (about log2(visible) extra draws) and
-        returns depth filled with +inf: for colour-only uses and timing."""
+    def __init__(self, context_factory=_create_context, depth_pass: bool = True,
+                 compute: bool | None = None):
+        """depth_pass=False skips the depth pass (about log9(visible) extra draws) and
+        returns depth filled with +inf: for colour-only uses and timing.
+        compute=None uses compute shaders (GPU preprocess, GPU or CPU sort, cached
+        uploads) where GL >= 4.3; compute=False, or an older GL, takes the GL 3.3
+        fallback: CPU preprocess and sort (core/project.py, core/sort.py), GPU draw."""
         self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
                       "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0}
         self._worker = GLWorker(context_factory)
         from .frame import FrameState
 
         try:
-            self._state = self._worker.call(FrameState, self._worker.ctx, self.stats)
+            self._state = self._worker.call(FrameState, self._worker.ctx, self.stats, compute)
             self._state.want_depth = bool(depth_pass)
         except BaseException:
             self._worker.close()
@@ -64,6 +68,11 @@ class OffscreenRenderer:
     def close(self):
         """Release every GPU object and the context, and join the GL thread."""
         self._worker.close(self._state.release)
+
+    @property
+    def uses_compute(self) -> bool:
+        """True on the GL 4.3 compute path, False on the GL 3.3 fallback."""
+        return self._state.compute
 
     @property
     def closed(self) -> bool:

@@ -10,8 +10,8 @@ from __future__ import annotations
 import functools
 import pathlib
 
-VERSION = "#version 430\n"
 MATH = "splat_math.glsl"
+RECORD_WIDTH = 2048  # texels per row of the GL 3.3 fallback's record textures
 
 
 def shader_dir() -> pathlib.Path:
@@ -28,14 +28,24 @@ def read(name: str) -> str:
     return (shader_dir() / name).read_text(encoding="utf-8")
 
 
-def source(name: str, math: bool = True, defines: dict | None = None, includes=()) -> str:
-    """Complete GLSL source of one stage file (after the math and any includes)."""
-    lines = [VERSION]
-    for key, value in (defines or {}).items():
+def source(name: str, math: bool = True, defines: dict | None = None, includes=(),
+           records: str = "ssbo") -> str:
+    """Complete GLSL source of one stage file (after the math and any includes).
+
+    records: how a stage reads the frame's splat records where it says #include_records:
+    "ssbo" (GL 4.3 storage buffers, sorted on the GPU or CPU) or "texture" (GL 3.3
+    fallback: textures already in back-to-front order)."""
+    version = 430 if records == "ssbo" else 330
+    lines = [f"#version {version}\n"]
+    defines = dict(defines or {})
+    if records == "texture":
+        defines["RECORD_WIDTH"] = RECORD_WIDTH
+    for key, value in defines.items():
         lines.append(f"#define {key} {value}\n")
     if math:
         lines.append(f"#line 1 1\n{read(MATH)}\n")
     for number, include in enumerate(includes, start=3):
         lines.append(f"#line 1 {number}\n{read(include)}\n")
-    lines.append(f"#line 1 2\n{read(name)}")
+    stage = read(name).replace("#include_records", read(f"gl_records_{records}.glsl"))
+    lines.append(f"#line 1 2\n{stage}")
     return "".join(lines)

@@ -1,0 +1,74 @@
+"""GL 3.3 fallback (no compute shaders, e.g. macOS's OpenGL 4.1): preprocess and sort
+on the CPU, draw on the GPU.
+
+The projection is core/project.py's (float64, camera-relative), the order is
+core.sort.back_to_front with the same quantised keys, and the records go to the GPU in
+back-to-front order as RGBA32F textures (shaders/gl_records_texture.glsl) for the same
+draw and depth-pass shaders. Records depend on the camera, so they are sent every frame.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.project import project
+from ..core.sort import back_to_front
+from .shaders import RECORD_WIDTH
+
+RECORD_UNITS = (4, 5, 6)  # texture units of u_rec0..2 (0..2 belong to the depth pass)
+
+
+def cpu_records(items, camera, options) -> tuple[np.ndarray, int]:
+    """(3, V, 4) float32 records of the visible splats, back to front, and V."""
+    recs, depths = [], []
+    for item in items:
+        p = project(item, camera, options.antialiased, options.opacity_aware_extent)
+        u, v, r = p.means2d[:, 0], p.means2d[:, 1], p.radius
+        with np.errstate(invalid="ignore"):
+            on = p.valid & (u + r >= 0) & (u - r <= camera.width) & (v + r >= 0) & (v - r <= camera.height)
+        rec = np.zeros((3, item.splats.count, 4))
+        rec[0] = np.stack([u, v, p.conic[:, 0], p.conic[:, 1]], 1)
+        rec[1] = np.stack([p.conic[:, 2], r, p.depth, p.opacity], 1)
+        rec[2, :, :3] = p.rgb
+        recs.append(rec)
+        depths.append(np.where(on, p.depth, np.inf))
+    if not recs:
+        return np.zeros((3, 0, 4), np.float32), 0
+    depth = np.concatenate(depths)
+    order = back_to_front(depth, options.key_bits, np.isfinite(depth))
+    return np.concatenate(recs, axis=1)[:, order].astype(np.float32), int(order.size)
+
+
+class RecordTextures:
+    """Three RGBA32F textures RECORD_WIDTH wide, grown as needed."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.rows = 0
+        self.textures = []
+
+    def upload(self, records: np.ndarray, stats: dict):
+        n = records.shape[1]
+        rows = max(1, -(-n // RECORD_WIDTH))
+        if rows > self.rows:
+            self.release()
+            self.textures = [self.ctx.texture((RECORD_WIDTH, rows), 4, dtype="f4") for _ in range(3)]
+            self.rows = rows
+        padded = np.zeros((3, rows * RECORD_WIDTH, 4), np.float32)
+        padded[:, :n] = records
+        for tex, data in zip(self.textures, padded):
+            tex.write(data.tobytes(), viewport=(0, 0, RECORD_WIDTH, rows))
+        stats["bytes_uploaded"] += padded.nbytes
+
+    def bind(self, *programs):
+        for unit, tex in zip(RECORD_UNITS, self.textures):
+            tex.use(unit)
+        for prog in programs:
+            for name, unit in zip(("u_rec0", "u_rec1", "u_rec2"), RECORD_UNITS):
+                if name in prog:
+                    prog[name].value = unit
+
+    def release(self):
+        for tex in self.textures:
+            tex.release()
+        self.textures = []
+        self.rows = 0

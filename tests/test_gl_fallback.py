@@ -1,0 +1,57 @@
+"""The offscreen renderer's GL 3.3 fallback (no compute shaders: CPU preprocess with
+core/project.py and CPU sort, GPU draw), forced with compute=False on the same context.
+Same PSNR bar as test_gl_render.py (its docstring explains it)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from addon.core import reference
+from addon.core.scene import RenderItem, RenderOptions
+from addon.gl import OffscreenRenderer
+from gl_scenes import framing_camera, psnr, random_splats, world_for
+from test_gl_render import MIN_PSNR, two_objects
+
+
+@pytest.fixture(scope="module")
+def fallback():
+    r = OffscreenRenderer(compute=False)
+    assert not r.uses_compute
+    yield r
+    r.close()
+
+
+@pytest.mark.parametrize("options", [
+    RenderOptions(), RenderOptions(antialiased=True), RenderOptions(key_bits=16),
+    RenderOptions(opacity_aware_extent=False, background=(0.2, 0.1, 0.0, 0.3)),
+], ids=["default", "aa", "16bit", "3sigma-bg"])
+def test_fallback_against_reference(fallback, options):
+    items = two_objects()
+    cam = framing_camera(items[0], 128, 96)
+    out = fallback.render(items, cam, options)
+    ref = reference.render(items, cam, options)
+    assert psnr(out.rgba, ref.rgba) >= MIN_PSNR and ref.rgba[..., 3].max() > 0.5
+    fin = np.isfinite(ref.depth)
+    assert np.mean(np.isfinite(out.depth) != fin) < 1e-3
+    both = fin & np.isfinite(out.depth)
+    assert np.allclose(out.depth[both], ref.depth[both], rtol=1e-5)
+
+
+def test_fallback_matches_compute_path(fallback):
+    items = [RenderItem(random_splats(2000, 2, seed=3), sh_degree=2)]
+    cam = framing_camera(items[0], 96, 64)
+    with OffscreenRenderer() as compute:
+        assert compute.uses_compute
+        a = compute.render(items, cam).rgba
+    b = fallback.render(items, cam).rgba
+    assert psnr(a, b) >= MIN_PSNR
+
+
+def test_fallback_empty_and_culled(fallback):
+    cam = framing_camera(RenderItem(random_splats(10)), 16, 16)
+    out = fallback.render([], cam)
+    assert not out.rgba.any() and np.isinf(out.depth).all()
+    s = random_splats(50)
+    s.rotations[:] = np.nan
+    out = fallback.render([RenderItem(s, world=world_for(s))], cam)
+    assert not out.rgba.any()

@@ -17,6 +17,7 @@ for 300k splats at 640x360 here); --z turns it on.
 """
 from __future__ import annotations
 
+import glob
 import os
 import statistics
 import time
@@ -79,6 +80,12 @@ def _setup_render(bpy, scene, width, height, z_pass):
     scene.render.use_file_extension = True
 
 
+def _clear_old_frames(folder: str) -> None:
+    """Frames a longer earlier run left behind would pass for part of this sequence."""
+    for path in glob.glob(os.path.join(folder, "frame_[0-9][0-9][0-9][0-9].exr")):
+        os.remove(path)
+
+
 def _render_exr(bpy, scene) -> list[float]:
     from ..blender import render_stop
 
@@ -112,13 +119,15 @@ def run(args) -> int:
         bpy.context, splats=args.splats, frames=args.frames, fps=args.fps, file=args.file)
     _setup_render(bpy, scene, width, height, args.z)
     blend = os.path.join(out, "demo.blend")
-    bpy.context.preferences.filepaths.save_version = 0  # no demo.blend1 beside it
+    if os.path.exists(blend):
+        os.remove(blend)  # a fresh file, not an overwrite: Blender would keep demo.blend1
     bpy.ops.wm.save_as_mainfile(filepath=blend, check_existing=False)
     print(f"built {source.name} ({len(source.data.points):,} splats) morphing into {target.name} "
           f"({len(target.data.points):,}) in {time.perf_counter() - t:.1f} s; saved {blend}", flush=True)
 
     print(f"rendering {args.frames} frames at {width}x{height} with the Splatline engine", flush=True)
     t = time.perf_counter()
+    _clear_old_frames(os.path.join(out, "exr"))
     times = _render_exr(bpy, scene)
     render_s = time.perf_counter() - t
     frames = [scene.render.frame_path(frame=f) for f in range(scene.frame_start, scene.frame_end + 1)]

@@ -25,6 +25,10 @@ def configure(parser):
                         help="axis convention override (default: the file's)")
     parser.add_argument("--bad-values", default="fix", choices=("fix", "drop", "error"),
                         help="NaN/Inf splats and zero quaternions: neutralise, drop or refuse")
+    parser.add_argument("--effect-preset", action="append", default=[], metavar="NAME",
+                        help="apply an effect preset (presets/effects/) to every imported object, "
+                             "keyed from the scene's start frame (repeatable); 'morph' needs two "
+                             "files and morphs the first into the second")
 
 
 def _check_args(args) -> None:
@@ -46,6 +50,7 @@ def run(args) -> int:
     bpy = start()
     from ..blender.import_splats import import_file_with_report
 
+    imported = []
     for path in args.files:
         try:
             obj, report = import_file_with_report(
@@ -53,9 +58,11 @@ def run(args) -> int:
                 max_count=args.max_count, axes=args.axes, bad=args.bad_values)
         except OSError as exc:  # e.g. permission denied: still one line naming the file
             raise SplatFormatError(path, exc.strerror or str(exc)) from None
+        imported.append(obj)
         extra = f"; {report.bad.summary()}" if report.bad.total else ""
         print(f"{path}: {len(obj.data.points)} of {report.count_in_file} splats, "
               f"SH degree {report.sh_degree_in_file} -> {_degree(obj)}{extra}")
+    _apply_effect_presets(bpy, args.effect_preset, imported)
     try:
         result = bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.blend))
     except RuntimeError as exc:  # Blender reports a failed save as an error report
@@ -64,6 +71,26 @@ def run(args) -> int:
         raise SplatFormatError(args.blend, "Blender could not save the .blend")
     print(f"wrote {args.blend} ({len(args.files)} object(s))")
     return 0
+
+
+def _apply_effect_presets(bpy, names, objects) -> None:
+    from ..blender.effect_presets import apply_preset
+    from ..blender.presets import find_preset
+    from ..core import effect_presets
+
+    frame = bpy.context.scene.frame_start
+    for name in names:
+        try:
+            preset = effect_presets.load(find_preset(name, "effects", ".json"))
+        except (KeyError, effect_presets.PresetError) as exc:
+            raise UserError(f"--effect-preset: {exc.args[0]}") from None
+        morphs = any(block.type == "MORPH" for block in preset.effects)
+        if morphs and len(objects) != 2:
+            raise UserError(f"--effect-preset {name}: morphs the first file into the second, "
+                            f"so it needs exactly two files ({len(objects)} given)")
+        for obj in objects[:1] if morphs else objects:
+            apply_preset(obj, preset, frame, target=objects[1] if morphs else None)
+        print(f"{preset.label}: keyed from frame {frame}")
 
 
 def _degree(obj) -> int:

@@ -33,9 +33,14 @@ def configure(parser):
     parser.add_argument("--out", required=True, metavar="DIR", help="folder for the frames or the movie")
     parser.add_argument("--frames", metavar="A-B", help="frame range (or one frame); default: the scene's")
     parser.add_argument("--step", type=int, metavar="N", help="render every Nth frame; default: the scene's")
-    parser.add_argument("--format", type=str.upper, choices=FORMATS,
+    output = parser.add_mutually_exclusive_group()
+    output.add_argument("--format", type=str.upper, choices=FORMATS,
                         help="EXR (multilayer, Combined + Depth), PNG (8-bit) or MP4 (H.264); "
                              "default: the .blend's own output settings")
+    output.add_argument("--preset", metavar="NAME",
+                        help="a render-output preset (presets/render/, or one saved in Blender), "
+                             "e.g. exr_half_multilayer, exr_float, png_16bit, h264_mp4, prores_422, "
+                             "preview; other flags given override it")
     parser.add_argument("--half", action="store_true", help="EXR: half floats instead of full floats")
     parser.add_argument("--resolution", metavar="WxH", help="output size in pixels (percentage set to 100)")
     parser.add_argument("--engine-option", action="append", default=[], metavar="NAME=VALUE",
@@ -172,6 +177,8 @@ class _StopOnSigint:
 def _prepare(bpy, args):
     scene = bpy.context.scene
     scene.render.engine = "SPLATLINE"
+    if args.preset:  # first, so that the explicit flags below override it
+        _apply_preset(args.preset)
     if args.frames:
         scene.frame_start, scene.frame_end = parse_frames(args.frames)
     if args.step is not None:
@@ -193,6 +200,14 @@ def _prepare(bpy, args):
     if scene.camera is None:
         raise UserError(f"{args.blend}: scene {scene.name!r} has no camera")
     return scene
+
+
+def _apply_preset(name: str) -> None:
+    from ..blender.presets import apply_render_preset
+    try:
+        apply_render_preset(name)
+    except KeyError as exc:
+        raise UserError(f"--preset: {exc.args[0]}") from None
 
 
 def _check_args(args) -> None:

@@ -48,11 +48,12 @@ def world_bounds(obj) -> Bounds:
 
 
 def build(context, *, splats: int = 300_000, target_splats: int | None = None,
-          frames: int = 120, fps: int = 24, file=None, degree: int = 3):
+          frames: int = 120, fps: int = 24, file=None, degree: int = 3, aspect: float = 16 / 9):
     """Fill context.scene with the animated demo; returns (source, target, camera).
 
     `file`: a splat file to use instead of the procedural torus knot (its SH degree is
     kept up to `degree`). The morph target is a procedural planet sized to the source.
+    `aspect`: the frame's width over height, which the camera distance is fitted to.
     """
     scene = context.scene
     scene.frame_start, scene.frame_end = 1, frames
@@ -70,7 +71,7 @@ def build(context, *, splats: int = 300_000, target_splats: int | None = None,
     target = _add_target(bounds, target_splats or target_count, degree)
     timeline = _Timeline(frames)
     _animate_effects(source, target, bounds, timeline)
-    camera = _add_camera(scene, bounds, timeline)
+    camera = _add_camera(scene, bounds, timeline, aspect)
     return source, target, camera
 
 
@@ -195,16 +196,18 @@ def _animate_effects(source, target, bounds: Bounds, timeline: _Timeline) -> Non
     _key(dissolve, "progress", end, 1.15, "LINEAR")
 
 
-def _add_camera(scene, bounds: Bounds, timeline: _Timeline):
-    """An orbit of half a turn that dollies in and rises a little, keyed every few frames
-    on location and rotation (no constraint), so it edits like any hand-keyed camera."""
+def _add_camera(scene, bounds: Bounds, timeline: _Timeline, aspect: float):
+    """An orbit of a third of a turn that dollies in and back out and sinks a little, keyed
+    every few frames on location and rotation (no constraint), so it edits like any
+    hand-keyed camera. The distance fits the capture's width and height into the frame."""
     data = bpy.data.cameras.new(CAMERA_NAME)
-    data.lens = 35.0
+    data.lens, data.sensor_fit, data.sensor_width = 35.0, "AUTO", 36.0
     data.clip_start = max(1e-3, 0.01 * bounds.size)
     data.clip_end = 100.0 * bounds.size
     camera = bpy.data.objects.new(CAMERA_NAME, data)
     scene.collection.objects.link(camera)
     scene.camera = camera
+    fit = _fit_distance(bounds, data, aspect)
     centre = Vector(bounds.centre)
     step = max(1, timeline.frames // 16)
     frames = list(range(1, timeline.frames + 1, step))
@@ -214,8 +217,8 @@ def _add_camera(scene, bounds: Bounds, timeline: _Timeline):
     for frame in frames:
         u = (frame - 1) / max(1, timeline.frames - 1)
         angle = -math.pi / 2 + math.pi * 0.6 * u
-        radius = bounds.size * (1.75 - 0.4 * math.sin(math.pi * u))
-        height = bounds.size * (0.45 - 0.2 * u)
+        radius = fit * (1.3 - 0.3 * math.sin(math.pi * u))
+        height = radius * math.tan(math.radians(18.0 - 10.0 * u))
         camera.location = centre + Vector((radius * math.cos(angle), radius * math.sin(angle), height))
         look = (centre - camera.location).to_track_quat("-Z", "Y")
         euler = look.to_euler("XYZ", previous) if previous is not None else look.to_euler("XYZ")
@@ -223,3 +226,13 @@ def _add_camera(scene, bounds: Bounds, timeline: _Timeline):
         camera.keyframe_insert("location", frame=frame)
         camera.keyframe_insert("rotation_euler", frame=frame)
     return camera
+
+
+def _fit_distance(bounds: Bounds, camera_data, aspect: float) -> float:
+    """Distance from the centre at which the capture's horizontal diagonal fits the width
+    and its height fits the height of the frame (plus half its depth, the near side)."""
+    extent = bounds.high - bounds.low
+    width, height = float(np.linalg.norm(extent[:2])), float(extent[2])
+    half = camera_data.sensor_width / 2 / camera_data.lens  # tan of the larger half-angle
+    tan_x, tan_y = (half, half / aspect) if aspect >= 1.0 else (half * aspect, half)
+    return max(width / 2 / tan_x, height / 2 / tan_y) + width / 2

@@ -116,7 +116,8 @@ def run(args) -> int:
     print(f"building the demo scene from {what}", flush=True)
     t = time.perf_counter()
     source, target, _camera = demo_scene.build(
-        bpy.context, splats=args.splats, frames=args.frames, fps=args.fps, file=args.file)
+        bpy.context, splats=args.splats, frames=args.frames, fps=args.fps, file=args.file,
+        aspect=width / height)
     _setup_render(bpy, scene, width, height, args.z)
     blend = os.path.join(out, "demo.blend")
     if os.path.exists(blend):

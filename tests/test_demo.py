@@ -204,3 +204,18 @@ def test_bad_arguments_fail_with_one_line(tmp_path):
                               cwd=ROOT, capture_output=True, text=True, timeout=60)
         assert proc.returncode == 1
         assert needle in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_saved_blend_renders_a_frame_alone_like_the_sequence(demo, tmp_path):
+    """The farm story: demo.blend rendered for one frame by another process gives the same
+    pixels as that frame of the demo's own sequence (frame t is a function of t alone)."""
+    out, _ = demo
+    frame = 4
+    proc = subprocess.run([sys.executable, "-m", "addon", "render", str(out / "demo.blend"),
+                           "--out", str(tmp_path), "--frames", str(frame)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    alone = _exr_rgba(tmp_path / f"frame_{frame:04d}.exr")
+    in_sequence = _exr_rgba(out / "exr" / f"frame_{frame:04d}.exr")
+    assert alone.mean() > 0.0
+    np.testing.assert_array_equal(alone, in_sequence)

@@ -45,13 +45,15 @@ def _exr_rgba(path):
     return read_exr_parts(path)[LAYER]
 
 
-def _fcurves(obj):
+def _fcurves(obj, what="values"):
+    """{(data_path, index): [key values]} (or key interpolations) of obj's action."""
     from bpy_extras import anim_utils
 
     anim = obj.animation_data
     assert anim is not None and anim.action is not None, f"{obj.name} has no animation"
     bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
-    return {(c.data_path, c.array_index): [p.co[1] for p in c.keyframe_points] for c in bag.fcurves}
+    get = (lambda p: p.co[1]) if what == "values" else (lambda p: p.interpolation)
+    return {(c.data_path, c.array_index): [get(p) for p in c.keyframe_points] for c in bag.fcurves}
 
 
 def _varies(values) -> bool:
@@ -91,6 +93,10 @@ def test_blend_reopens_with_objects_effects_and_keyframes(demo, bpy_empty):
         assert _varies(keys), (index, prop, keys)
     amplitude = curves[("splatline.effects[1].amplitude", 0)]
     assert amplitude[0] == amplitude[-1] == 0.0 and max(amplitude) > 0.0  # keyed up, then down
+    # the sweeps run at constant speed; the swells ease in and out
+    modes = _fcurves(source, "interpolation")
+    assert set(modes[("splatline.effects[0].progress", 0)]) == {"LINEAR"}
+    assert set(modes[("splatline.effects[1].amplitude", 0)]) == {"BEZIER"}
     amount = curves[("splatline.effects[2].amount", 0)]
     assert (amount[0], amount[-1]) == (0.0, 1.0)  # source at the start, target at the end
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import bpy
+from bpy_extras import anim_utils
 from mathutils import Vector
 
 from ..core import procedural
@@ -58,7 +59,6 @@ def build(context, *, splats: int = 300_000, target_splats: int | None = None,
     scene = context.scene
     scene.frame_start, scene.frame_end = 1, frames
     scene.render.fps, scene.render.fps_base = fps, 1.0
-    bpy.context.view_layer.update()
     if file is None:
         knot = procedural.torus_knot(splats, degree)
         source = new_pointcloud_object(SOURCE_NAME, knot.subset(coherent_order(knot.positions)))
@@ -66,7 +66,7 @@ def build(context, *, splats: int = 300_000, target_splats: int | None = None,
     else:
         source = import_file(context, file, max_sh_degree=degree, max_count=splats)
         target_count = max(1, len(source.data.points) * 3 // 4)  # paired by spatial sort
-    bpy.context.view_layer.update()
+    context.view_layer.update()  # matrix_world of the imported object's axis rotation
     bounds = world_bounds(source)
     target = _add_target(bounds, target_splats or target_count, degree)
     timeline = _Timeline(frames)
@@ -128,27 +128,11 @@ def _key(owner, prop: str, frame: int, value, interpolation: str = "BEZIER") -> 
 
 def _set_interpolation(owner, prop, frame, interpolation):
     anim = owner.id_data.animation_data
-    path = owner.path_from_id(prop)
-    for fcurve in _fcurves(anim):
-        if fcurve.data_path == path:
-            for point in fcurve.keyframe_points:
-                if int(round(point.co.x)) == frame:
-                    point.interpolation = interpolation
-
-
-def _fcurves(anim):
-    """Every F-curve of an ID's action (Blender 5.0 keeps them in layered action channelbags)."""
-    if anim is None or anim.action is None:
-        return []
-    action = anim.action
-    if hasattr(action, "layers") and len(action.layers):
-        curves = []
-        for layer in action.layers:
-            for strip in layer.strips:
-                for bag in strip.channelbags:
-                    curves.extend(bag.fcurves)
-        return curves
-    return list(action.fcurves)
+    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
+    curve = bag.fcurves.find(owner.path_from_id(prop))
+    for point in curve.keyframe_points:
+        if int(round(point.co.x)) == frame:
+            point.interpolation = interpolation
 
 
 def _add_effect(obj, kind: str, name: str):

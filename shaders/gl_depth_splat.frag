@@ -16,7 +16,7 @@ void main()
 {
     vec2 b = texelFetch(u_bounds, ivec2(gl_FragCoord.xy), 0).xy;
     uint rank = uint(v_rank);
-    if (rank > depth_probe(b, 8u)) discard;
+    if (b.x >= b.y || rank > depth_probe(b, 8u)) discard;  // converged, or beyond every probe
     vec2 pix = vec2(u_tile.x + gl_FragCoord.x, u_tile.y + u_tile.w - gl_FragCoord.y);
     float alpha = sl_alpha(pix - v_centre, v_conic, v_colour.a);
     if (alpha < SL_ALPHA_MIN) discard;

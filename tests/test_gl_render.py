@@ -76,7 +76,8 @@ def test_test64_each_sh_degree(renderer, test64, degree):
     RenderOptions(gpu_sort=False),
     RenderOptions(key_bits=16),
     RenderOptions(background=(0.1, 0.2, 0.3, 0.5)),
-], ids=["default", "aa", "3sigma", "aa-3sigma", "cpu-sort", "16bit", "background"])
+    RenderOptions(background=(0.0, 0.0, 0.0, 1.0)),
+], ids=["default", "aa", "3sigma", "aa-3sigma", "cpu-sort", "16bit", "background", "opaque-film"])
 def test_two_objects_against_reference(renderer, options):
     items = two_objects()
     cam = framing_camera(items[0], 160, 120)

@@ -45,7 +45,10 @@ class DepthPass:
         self.resolve = ctx.program(
             vertex_shader=full,
             fragment_shader=shaders.source("gl_depth_resolve.frag", math=False, records=records))
-        self.vaos = {p: ctx.vertex_array(p, []) for p in (self.splat, self.update, self.resolve)}
+        self.init = ctx.program(
+            vertex_shader=full,
+            fragment_shader=shaders.source("gl_depth_init.frag", math=False, records=records))
+        self.vaos = {p: ctx.vertex_array(p, []) for p in (self.splat, self.update, self.resolve, self.init)}
         self.targets: dict = {}
         self.steps = 0  # search steps of the last frame (for stats and tests)
 
@@ -63,15 +66,23 @@ class DepthPass:
             self.targets[(w, h)] = (tex, fbos)
         return self.targets[(w, h)]
 
-    def run(self, tile, visible: int) -> np.ndarray:
-        """(h, w) float32 top-down depth of one tile; the order and records are bound."""
+    def run(self, tile, visible: int, colour=None, background_alpha: float = 0.0) -> np.ndarray:
+        """(h, w) float32 top-down depth of one tile; the order and records are bound.
+        colour: the tile's colour-pass texture; pixels it shows below alpha 0.5 skip the search."""
         x0, y0, w, h = tile
         if visible == 0:
             self.steps = 0
             return np.full((h, w), np.inf, np.float32)
         tex, fbos = self._targets(w, h)
         self._use(fbos["a"], w, h)
-        fbos["a"].clear(0.0, float(visible), 0.0, 0.0)
+        if colour is None or background_alpha > 0.9:  # nearly opaque film: alpha tells nothing
+            fbos["a"].clear(0.0, float(visible), 0.0, 0.0)
+        else:
+            colour.use(0)
+            self.init["u_colour"].value = 0
+            self.init["u_visible_f"].value = float(visible)
+            self.init["u_alpha_floor"].value = float(background_alpha)
+            self.vaos[self.init].render(moderngl.TRIANGLES, vertices=3)
         self.splat["u_tile"].value = (float(x0), float(y0), float(w), float(h))
         self.splat["u_visible"].value = visible
         src, dst = "a", "b"
@@ -117,5 +128,5 @@ class DepthPass:
         for tex, fbos in self.targets.values():
             for obj in list(fbos.values()) + list(tex.values()):
                 obj.release()
-        for obj in list(self.vaos.values()) + [self.splat, self.update, self.resolve]:
+        for obj in list(self.vaos.values()) + [self.splat, self.update, self.resolve, self.init]:
             obj.release()

@@ -53,6 +53,11 @@ class FrameState:
         if n <= self.capacity:
             return
         cap = max(1024, 1 << math.ceil(math.log2(n)))
+        limit = self.cache.max_block // 16  # one vec4 record per splat per storage block
+        if n > limit:
+            raise RuntimeError(f"{n:,} splats in one frame exceed this GL's storage blocks "
+                               f"({limit:,}); render with OffscreenRenderer(compute=False)")
+        cap = min(cap, limit)
         for buf in self.arrays.values():
             buf.release()
         self.arrays = {k: self.ctx.buffer(reserve=size * cap) for k, size in FRAME_ARRAYS.items()}
@@ -156,7 +161,8 @@ class FrameState:
         for tile in tiles(camera.width, camera.height):
             x0, y0, w, h = tile
             rgba[y0:y0 + h, x0:x0 + w] = self._draw_tile(tile, visible, bg)
-            depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(tile, visible if self.want_depth else 0)
+            depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(
+                tile, visible if self.want_depth else 0, self.targets[(w, h)][0], bg[3])
         self.stats["frames"] += 1
         self.last = (order, visible, n)
         return RenderOutput(rgba, depth)

@@ -23,6 +23,16 @@ def random_splats(n: int, degree: int = 0, seed: int = 0, spread: float = 0.5,
     return s
 
 
+def two_objects(n=1500):
+    """Two overlapping clouds with different transforms: the global sort must interleave them."""
+    a = random_splats(n, 3, seed=1)
+    b = random_splats(n, 1, seed=2)
+    wb = world_for(b, (0.15, 0.0, 0.05))
+    wb[:3, :3] = wb[:3, :3] @ np.diag([1.2, 0.8, 1.0])  # non-uniform object scale
+    return [RenderItem(a, world=world_for(a), key=("a", 0)),
+            RenderItem(b, world=wb, key=("b", 0), opacity_scale=0.8, splat_scale=1.3)]
+
+
 def world_for(splats: SplatSet, translation=(0.0, 0.0, 0.0)) -> np.ndarray:
     """Object matrix carrying the file's axis convention (as an import would)."""
     m = np.eye(4)

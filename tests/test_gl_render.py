@@ -23,7 +23,7 @@ from addon.core.formats import read
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sort import back_to_front, depth_keys
 from addon.gl import OffscreenRenderer
-from gl_scenes import framing_camera, psnr, random_splats, world_for
+from gl_scenes import framing_camera, psnr, random_splats, two_objects, world_for
 
 MIN_PSNR = 60.0
 
@@ -40,16 +40,6 @@ def test64(testdata):
     s = read(testdata / "test64.ply")
     assert s.sh_degree == 3
     return s
-
-
-def two_objects(n=1500):
-    """Two overlapping clouds with different transforms: the global sort must interleave them."""
-    a = random_splats(n, 3, seed=1)
-    b = random_splats(n, 1, seed=2)
-    wb = world_for(b, (0.15, 0.0, 0.05))
-    wb[:3, :3] = wb[:3, :3] @ np.diag([1.2, 0.8, 1.0])  # non-uniform object scale
-    return [RenderItem(a, world=world_for(a), key=("a", 0)),
-            RenderItem(b, world=wb, key=("b", 0), opacity_scale=0.8, splat_scale=1.3)]
 
 
 def assert_close(out, ref, min_psnr=MIN_PSNR):

@@ -24,6 +24,10 @@ def _create_context():
 class OffscreenRenderer:
     """render(items, camera, options) -> RenderOutput, like every renderer.
 
+    Same semantics as core/reference.py, except options.early_termination, which a quad
+    rasterizer cannot do: frames are always composited without it (as the reference's
+    default). Matches the reference to ~90-140 dB PSNR (bench/render_bench.py).
+
     stats counts work across frames: frames, geometry_uploads (objects whose splats
     were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts.
     """

@@ -152,9 +152,11 @@ def test_no_reupload_when_unchanged(renderer, test64):
     # a new geometry version re-uploads; key None always uploads
     renderer.render([RenderItem(test64, key=("cache", 2), sh_degree=0)], cam)
     assert stats["geometry_uploads"] == geo + 1
-    for _ in range(2):
+    for _ in range(3):
         renderer.render([RenderItem(test64, key=None, sh_degree=0)], cam)
-    assert stats["geometry_uploads"] == geo + 3
+        # the uncached object of the frame before is freed; ("cache", 2) left the scene
+        assert stats["resident_objects"] == 1
+    assert stats["geometry_uploads"] == geo + 4
 
 
 def test_degree_zero_uploads_no_sh(test64):

@@ -164,6 +164,7 @@ class FrameState:
             depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(
                 tile, visible if self.want_depth else 0, self.targets[(w, h)][0], bg[3])
         self.stats["frames"] += 1
+        self.stats["resident_objects"] = self.cache.resident
         self.last = (order, visible, n)
         return RenderOutput(rgba, depth)
 

@@ -29,7 +29,8 @@ class OffscreenRenderer:
     default). Matches the reference to ~90-140 dB PSNR (bench/render_bench.py).
 
     stats counts work across frames: frames, geometry_uploads (objects whose splats
-    were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts.
+    were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts; resident_objects is
+    how many objects hold GPU buffers after the last frame.
     """
 
     def __init__(self, context_factory=_create_context, depth_pass: bool = True,
@@ -40,7 +41,8 @@ class OffscreenRenderer:
         uploads) where GL >= 4.3; compute=False, or an older GL, takes the GL 3.3
         fallback: CPU preprocess and sort (core/project.py, core/sort.py), GPU draw."""
         self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
-                      "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0}
+                      "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0,
+                      "resident_objects": 0}
         self._worker = GLWorker(context_factory)
         from .frame import FrameState
 

@@ -111,6 +111,11 @@ class UploadCache:
             self._upload_rest(obj, item, degree)
         return obj
 
+    @property
+    def resident(self) -> int:
+        """Objects whose buffers are alive on the GPU now."""
+        return len(self.objects) + len(self.transient)
+
     def begin_frame(self):
         """Free the uncached (key None) objects of the previous frame."""
         for obj in self.transient:

@@ -225,3 +225,26 @@ def test_saved_blend_renders_a_frame_alone_like_the_sequence(demo, tmp_path):
     in_sequence = _exr_rgba(out / "exr" / f"frame_{frame:04d}.exr")
     assert alone.mean() > 0.0
     np.testing.assert_array_equal(alone, in_sequence)
+
+
+def test_mp4_plays_in_ffmpeg(demo):
+    """Decode every frame with ffmpeg itself (not Blender): a player-independent check that
+    the file is a valid H.264 MP4 of the expected length and size."""
+    import re
+    import subprocess
+
+    import imageio_ffmpeg
+
+    out, _ = demo
+    movie = out / "demo.mp4"
+    proc = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-stats", "-i", str(movie),
+                           "-map", "0:v:0", "-f", "null", "-"], capture_output=True, text=True, timeout=60)
+    # With -v error, anything on stderr besides the progress lines is a decode error.
+    problems = [line for line in proc.stderr.replace("\r", "\n").splitlines()
+                if line.strip() and "frame=" not in line]
+    assert proc.returncode == 0 and not problems, proc.stderr
+    frames = re.findall(r"frame=\s*(\d+)", proc.stderr)
+    assert frames and int(frames[-1]) == FRAMES == len(list((out / "exr").glob("*.exr")))
+    probe = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-i", str(movie)],
+                           capture_output=True, text=True, timeout=60).stderr
+    assert re.search(rf"Video: h264.*\b{WIDTH}x{HEIGHT}\b", probe), probe

@@ -177,26 +177,37 @@ def test_empty_scene_is_background(renderer):
 
 
 def test_gl_runs_on_its_own_thread_and_leaves_callers_context_alone(test64):
-    """A context current on the calling thread (Blender's, in real use) is untouched."""
-    mine = moderngl.create_context(standalone=True, backend="egl")
-    tex = mine.texture((4, 4), 4, dtype="f4")
-    fbo = mine.framebuffer(color_attachments=[tex])
-    fbo.use()
-    fbo.clear(0.25, 0.5, 0.75, 1.0)
-    with OffscreenRenderer() as r:
-        item = RenderItem(test64, world=world_for(test64))
-        cam = framing_camera(item, 32, 32)
-        out = r.render([item], cam)
-        other = {}
-        t = threading.Thread(target=lambda: other.update(out=r.render([item], cam)))
-        t.start()
-        t.join()
-        np.testing.assert_array_equal(other["out"].rgba, out.rgba)
-    # the caller's context still draws and reads back its own framebuffer
-    fbo.use()
-    got = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(4, 4, 4)
-    assert np.allclose(got, (0.25, 0.5, 0.75, 1.0))
-    mine.release()
+    """A context current on the calling thread (Blender's, in real use) is untouched.
+
+    The stand-in caller runs on a thread of its own: on the main thread its context would
+    replace Blender's own, which other tests in this process have made current there."""
+    result = {}
+
+    def caller():
+        mine = moderngl.create_context(standalone=True, backend="egl")
+        try:
+            tex = mine.texture((4, 4), 4, dtype="f4")
+            fbo = mine.framebuffer(color_attachments=[tex])
+            fbo.use()
+            fbo.clear(0.25, 0.5, 0.75, 1.0)
+            with OffscreenRenderer() as r:
+                item = RenderItem(test64, world=world_for(test64))
+                cam = framing_camera(item, 32, 32)
+                result["out"] = r.render([item], cam)
+                t = threading.Thread(target=lambda: result.update(other=r.render([item], cam)))
+                t.start()
+                t.join()
+            # the caller's context still draws and reads back its own framebuffer
+            fbo.use()
+            result["got"] = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+        finally:
+            mine.release()
+
+    thread = threading.Thread(target=caller)
+    thread.start()
+    thread.join()
+    np.testing.assert_array_equal(result["other"].rgba, result["out"].rgba)
+    assert np.allclose(result["got"].reshape(4, 4, 4), (0.25, 0.5, 0.75, 1.0))
 
 
 def test_close_releases_and_refuses_more_work(test64):

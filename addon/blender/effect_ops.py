@@ -138,8 +138,7 @@ class SPLATLINE_OT_effect_duplicate(_EffectOperator, bpy.types.Operator):
 
 
 class SPLATLINE_OT_effect_add_gizmo(_EffectOperator, bpy.types.Operator):
-    """Add an Empty as the active effect's gizmo, where the effect's field is by default
-    (world-aligned at the object's origin), so nothing changes until you move it"""
+    """Add an Empty as the active effect's gizmo where its field already is, so nothing changes until it moves"""
     bl_idname = "splatline.effect_add_gizmo"
     bl_label = "Add Gizmo Empty"
 

@@ -82,8 +82,7 @@ class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
 
 
 class SPLATLINE_OT_bake_sequence(bpy.types.Operator):
-    """Write the active splat object's evaluated splats for each frame as numbered PLYs.
-    Esc cancels between frames when run interactively"""
+    """Write the active splat object's evaluated splats for each frame as numbered PLYs (Esc cancels)"""
 
     bl_idname = "splatline.bake_sequence"
     bl_label = "Bake Splat Sequence"

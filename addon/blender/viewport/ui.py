@@ -46,6 +46,7 @@ class SPLATLINE_PT_viewport_stats(bpy.types.Panel):
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Splatline"
+    bl_order = 1  # below the tab's Animate panel (blender/panels.py)
 
     def draw(self, context):
         from . import drawer

@@ -1,0 +1,127 @@
+"""The N-sidebar's Splatline tab, through real bpy.
+
+Background mode has no UI to draw into, so each panel's draw() runs against a layout
+that records what it asks for; every property, operator, menu and icon it names is then
+looked up in the running Blender. In the UI a wrong name only prints to the console and
+leaves a hole in the panel, so this is where a typo shows.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from engine_scene import add_splats, flat_splats
+
+
+class RecordingLayout:
+    """Stands in for bpy.types.UILayout: sub-layouts share one record."""
+
+    def __init__(self, record=None):
+        self.record = record if record is not None else []
+        self.use_property_split = self.use_property_decorate = False
+
+    def _sub(self, *_args, **_kwargs):
+        return RecordingLayout(self.record)
+
+    row = column = box = _sub
+
+    def separator(self, *_args, **_kwargs):
+        pass
+
+    def label(self, text="", icon="NONE", **_kwargs):
+        self.record.append(("label", text, icon))
+
+    def prop(self, data, name, icon="NONE", **_kwargs):
+        self.record.append(("prop", (data, name), icon))
+
+    def operator(self, idname, icon="NONE", **_kwargs):
+        self.record.append(("operator", idname, icon))
+        return SimpleNamespace()  # operator properties set by the panel land here
+
+    def operator_menu_enum(self, idname, prop, icon="NONE", **_kwargs):
+        self.record.append(("operator", idname, icon))
+
+    def menu(self, idname, icon="NONE", **_kwargs):
+        self.record.append(("menu", idname, icon))
+
+
+def _draw(panel_cls, obj):
+    layout = RecordingLayout()
+    panel_cls.draw(SimpleNamespace(layout=layout), SimpleNamespace(active_object=obj))
+    return layout.record
+
+
+def _check_names_exist(bpy, record):
+    icons = bpy.types.UILayout.bl_rna.functions["prop"].parameters["icon"].enum_items.keys()
+    for kind, what, icon in record:
+        assert icon in icons, icon
+        if kind == "prop":
+            data, name = what
+            assert name in data.bl_rna.properties, (data, name)
+        elif kind == "operator":
+            module, name = what.split(".")
+            getattr(getattr(bpy.ops, module), name).get_rna_type()  # raises when unknown
+        elif kind == "menu":
+            assert hasattr(bpy.types, what), what
+
+
+def _props(record):
+    return [what[1] for kind, what, _ in record if kind == "prop"]
+
+
+def test_sidebar_tab_holds_the_timeline_tools_and_statistics(bpy_empty):
+    bpy = bpy_empty
+    animate, output = bpy.types.SPLATLINE_PT_animate, bpy.types.SPLATLINE_PT_animate_output
+    stats = bpy.types.SPLATLINE_PT_viewport_stats
+    for panel in (animate, output, stats):
+        assert (panel.bl_space_type, panel.bl_region_type, panel.bl_category) == ("VIEW_3D", "UI", "Splatline")
+    assert animate.bl_order < stats.bl_order
+
+
+def test_animate_panel_without_a_splat_object_offers_import(bpy_empty):
+    bpy = bpy_empty
+    record = _draw(bpy.types.SPLATLINE_PT_animate, None)
+    _check_names_exist(bpy, record)
+    assert ("operator", "import_scene.splatline_gaussians", "IMPORT") in record
+    assert not bpy.types.SPLATLINE_PT_animate_output.poll(SimpleNamespace(active_object=None))
+
+
+def test_animate_panel_shows_look_effects_and_sequence_timing(bpy_empty):
+    bpy = bpy_empty
+    obj = add_splats(bpy, "s", flat_splats(np.zeros((4, 3)), np.full((4, 3), 0.5)))
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        for kind in ("REVEAL", "DISPLACE"):
+            bpy.ops.splatline.effect_add(type=kind)
+    record = _draw(bpy.types.SPLATLINE_PT_animate, obj)
+    _check_names_exist(bpy, record)
+    props = _props(record)
+    assert {"opacity", "size", "exposure"} <= set(props)
+    assert props.count("amount") == 2 and props.count("enabled") == 2  # one row per effect
+    assert "speed" not in props  # not a sequence: no timing
+    assert ("menu", "SPLATLINE_MT_effect_presets", "PRESET") in record
+
+    obj.splatline.sequence.enabled = True
+    timing = _props(_draw(bpy.types.SPLATLINE_PT_animate, obj))
+    assert {"frame_offset", "speed", "loop_mode"} <= set(timing)
+
+    context = SimpleNamespace(active_object=obj)
+    assert bpy.types.SPLATLINE_PT_animate_output.poll(context)
+    record = _draw(bpy.types.SPLATLINE_PT_animate_output, obj)
+    _check_names_exist(bpy, record)
+    assert {what for kind, what, _ in record if kind == "operator"} == {
+        "splatline.bake_sequence", "export_scene.splatline_evaluated", "render.render"}
+
+
+def test_every_operator_has_a_one_line_tooltip(bpy_empty):
+    """Blender shows an operator's description as its tooltip (and in F3 search): it must
+    exist, and a docstring's line break would show up as a break plus its indentation."""
+    bpy = bpy_empty
+    found = []
+    for module in ("splatline", "import_scene", "export_scene"):
+        for name in dir(getattr(bpy.ops, module)):
+            if module == "splatline" or "splatline" in name:
+                rna = getattr(getattr(bpy.ops, module), name).get_rna_type()
+                found.append(name)
+                assert rna.description.strip() and "\n" not in rna.description, (name, rna.description)
+    assert len(found) >= 14  # import, export, sequence, bake, effects, presets

@@ -250,3 +250,64 @@ def test_hidden_objects_and_collections_are_not_drawn(bpy_empty):
     coll.hide_viewport = False
     a.hide_viewport = True
     assert names() == ["b"]
+
+
+def _far_camera(width=64, height=48, distance=6.0):
+    """Every splat of a [-1, 1]^3 grid well inside the view: the frustum test drops none."""
+    from addon.core.camera import look_at, simple_camera
+
+    eye = np.array([0.3, -distance, 0.8])
+    return simple_camera(width, height, 45.0, look_at(eye, (0, 0, 0)), near=0.05, far=50.0)
+
+
+def test_colour_and_opacity_animation_keeps_the_sort(bpy_empty, gpu_ready):
+    """An animated Reveal (opacity, scale, glow) and Grade change every frame's data key,
+    but not the centres: the viewport re-uploads data and keeps its order. Displace moves
+    the centres, and re-sorts."""
+    from addon.blender.viewport import ViewportRenderer
+    from animation_scene import add_object, grid_splats, items_at
+
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats(n_side=6))
+    bpy.context.view_layer.objects.active = obj
+    with bpy.context.temp_override(object=obj):
+        for kind in ("REVEAL", "GRADE"):
+            bpy.ops.splatline.effect_add(type=kind)
+    reveal = obj.splatline.effects[0]
+    reveal.glow_strength = 1.0
+    for frame, progress in ((1, 0.0), (20, 1.0)):
+        reveal.progress = progress
+        reveal.keyframe_insert("progress", frame=frame)
+    cam, r = _far_camera(), ViewportRenderer()
+    draw_offscreen(items_at(bpy, 5), cam, renderer=r)
+    sorts, uploads = r.stats.sorts, r.stats.uploads
+    later = items_at(bpy, 12)
+    img, _ = draw_offscreen(later, cam, renderer=r)
+    assert r.stats.uploads > uploads, "the colours and opacities changed: data goes up"
+    assert r.stats.sorts == sorts, "no centre moved: the order stays"
+    assert psnr(img, draw_offscreen(later, cam)[0]) == float("inf")  # what a fresh renderer draws
+
+    with bpy.context.temp_override(object=obj):
+        bpy.ops.splatline.effect_add(type="DISPLACE")
+    img, _ = draw_offscreen(items_at(bpy, 12), cam, renderer=r)
+    assert r.stats.sorts == sorts + 1
+    assert psnr(img, draw_offscreen(items_at(bpy, 12), cam)[0]) == float("inf")
+
+
+def test_growing_splats_resort_only_when_the_order_culled_by_radius(gpu_ready):
+    """The kept order is valid for new radii unless the frustum test dropped splats: a
+    splat that grows may then reach the view."""
+    from addon.blender.viewport import ViewportRenderer
+    from animation_scene import grid_splats
+
+    splats = grid_splats(n_side=6)
+    base = RenderItem(splats, key=("a", 0), positions_key=("a", 0))
+    grown = RenderItem(replace(splats, scales=splats.scales * 3.0), key=("a", 1), positions_key=("a", 0))
+    near = replace(_orbit(camera_for((0, 0, 0), 64, 48), 20), near=0.05)  # 1.5 away: edges culled
+    for cam, resorts in ((_far_camera(), False), (near, True)):
+        r = ViewportRenderer()
+        draw_offscreen([base], cam, renderer=r)
+        assert r.state.sorted_radius_dependent == resorts
+        img, _ = draw_offscreen([grown], cam, renderer=r)
+        assert r.stats.sorts == 1 + resorts
+        assert psnr(img, draw_offscreen([grown], cam)[0]) == float("inf")

@@ -65,7 +65,9 @@ class Stats:
 class _State:
     tokens: dict = field(default_factory=dict)  # texture name -> identities it was built from
     positions_token: tuple = ()
+    radius_token: tuple = ()
     sorted_token: object = None
+    sorted_radius_dependent: bool = False  # the last order culled by radius (see SortResult)
     pending_token: object = None
     objects_token: object = None
 
@@ -84,8 +86,9 @@ class _Packs:
         self.used: dict = {}
         self.built = 0  # arrays packed so far
 
-    def get(self, name: str, item: RenderItem, sources: tuple, build, extra=()):
-        ident = (name, item.key, tuple(id(a) for a in sources), extra)
+    def get(self, name: str, item: RenderItem, sources: tuple, build, extra=(), key=None):
+        """key: the item key to file the entry under (default item.key)."""
+        ident = (name, item.key if key is None else key, tuple(id(a) for a in sources), extra)
         hit = self.entries.get(ident)
         if hit is None or any(x is not y for x, y in zip(hit[0], sources)):
             hit = (sources, build())
@@ -97,6 +100,10 @@ class _Packs:
         """Drop entries not used this frame; returns the bytes kept."""
         self.entries, self.used = self.used, {}
         return sum(v[1].nbytes for v in self.entries.values())
+
+
+def _positions_key(item: RenderItem):
+    return item.key if item.positions_key is None else item.positions_key
 
 
 class ViewportRenderer:
@@ -148,33 +155,41 @@ class ViewportRenderer:
                                  extra=(tuple(degrees), stride))
         self.gpu.sh_stride = stride
         start, built = time.perf_counter(), self.packs.built
+        # Filed under positions_key: a colour, opacity or scale effect changes item.key
+        # every frame but not the centres, and must not cost a re-sort.
         soa = [self.packs.get("centres", i, (i.splats.positions,),
-                              lambda i=i: centres_layout(i.splats.positions)) for i in items]
+                              lambda i=i: centres_layout(i.splats.positions), key=_positions_key(i))
+               for i in items]
         radii = [self.packs.get("radius", i, (i.splats.scales,),
-                                lambda i=i: bounding_radius(i.splats.scales))[1] for i in items]
+                                lambda i=i: bounding_radius(i.splats.scales), key=_positions_key(i))
+                 for i in items]
         if self.packs.built != built:  # packing for the sort counts as upload work
             seconds += time.perf_counter() - start
         token = tuple(ident for ident, _ in soa)
         if token != self.state.positions_token:
             self.state.positions_token = token
             self.state.sorted_token = None  # the old order is stale: sort inline this frame
+        self.state.radius_token = tuple(ident for ident, _ in radii)
         self.stats.cpu_bytes = self.packs.end_frame()
         self.stats.total = sum(i.splats.count for i in items)
         if seconds:
             self.stats.upload_seconds = seconds
             self.stats.frame_upload += seconds
-        return [(a, r) for (_, a), r in zip(soa, radii)]
+        return [(a, r) for (_, a), (_, r) in zip(soa, radii)]
 
     # -- view ---------------------------------------------------------------
     def _sort_token(self, items, l2c, projection, displays):
         flat = np.concatenate([np.asarray(projection, np.float64).ravel()] + [m.ravel() for m in l2c])
         opts = tuple((d.cull, d.dilation, d.key_bits, d.splat_scale) for d in displays)
         scales = tuple(i.splat_scale for i in items)
-        return (self.state.positions_token, opts + scales, flat)
+        return (self.state.positions_token, opts + scales, flat, self.state.radius_token)
 
-    @staticmethod
-    def _same_view(a, b) -> bool:
+    def _same_view(self, a, b) -> bool:
+        """Would the order made for token b serve token a? New radii only matter when
+        the last order dropped splats by radius (growing splats may reach the view)."""
         if a is None or b is None or a[:2] != b[:2] or a[2].shape != b[2].shape:
+            return False
+        if self.state.sorted_radius_dependent and a[3] != b[3]:
             return False
         scale = max(1.0, float(np.abs(b[2]).max(initial=0.0)))
         return float(np.abs(a[2] - b[2]).max(initial=0.0)) <= RESORT_EPS * scale
@@ -209,6 +224,7 @@ class ViewportRenderer:
         self.stats.drawn = int(result.order.size)
         self.stats.sorts += 1
         self.state.sorted_token = result.token
+        self.state.sorted_radius_dependent = result.radius_dependent
 
     @property
     def sorting(self) -> bool:

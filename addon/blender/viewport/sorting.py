@@ -51,6 +51,7 @@ class SortResult:
     order: np.ndarray        # (M,) uint32 global splat indices, farthest first
     seconds: float           # CPU time of the cull + sort
     token: object = None     # what the caller asked for (view + data versions)
+    radius_dependent: bool = False  # the frustum test removed splats: other radii may not
 
 
 def _rows(m: np.ndarray, projection: np.ndarray, cull: bool) -> np.ndarray:
@@ -93,7 +94,8 @@ def _outside(soa: np.ndarray, radius, rows: np.ndarray, dilation: float, radius_
 
 
 def _keep(part: SortInput, projection, near, far):
-    """(depths, indices or None for all) of one object's splats that survive culling.
+    """(depths, indices or None for all, whether the frustum test removed any) of one
+    object's splats that survive culling.
 
     Culling is conservative: a splat goes only when its bounding sphere (3 sigma of
     its largest axis) lies wholly outside the grown frustum, so a large splat whose
@@ -107,6 +109,7 @@ def _keep(part: SortInput, projection, near, far):
     depth += np.float32(depth_row[3])
     keep = depth > near
     keep &= depth <= far
+    frustum_removed = False
     if part.cull:
         rows = _rows(m, projection, True)
         n = part.soa.shape[1]
@@ -114,11 +117,13 @@ def _keep(part: SortInput, projection, near, far):
         args = (rows, part.dilation, part.radius_scale)
         if n <= SMALL or _outside(part.soa[:, ::SAMPLE_STRIDE], None if r is None else r[::SAMPLE_STRIDE],
                                   *args).mean() > CULL_WORTH:
-            keep &= ~_outside(part.soa, r, *args)
+            outside = _outside(part.soa, r, *args)
+            frustum_removed = bool((outside & keep).any())
+            keep &= ~outside
     if keep.all():
-        return depth, None
+        return depth, None, frustum_removed
     idx = np.flatnonzero(keep).astype(np.int32)  # half the bytes for the gathers that follow
-    return depth[idx], idx
+    return depth[idx], idx, frustum_removed
 
 
 def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, far: float,
@@ -131,9 +136,11 @@ def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, 
     start = time.perf_counter()
     depths, indices = [], []
     offset = 0
+    radius_dependent = False
     projection = np.asarray(projection, np.float64)
     for part in inputs:
-        depth, idx = _keep(part, projection, near, far)
+        depth, idx, frustum_removed = _keep(part, projection, near, far)
+        radius_dependent |= frustum_removed
         n = part.soa.shape[1]
         if idx is None and len(inputs) > 1:
             idx = np.arange(n, dtype=np.int32)
@@ -147,7 +154,8 @@ def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, 
     if indices[0] is not None or len(indices) > 1:
         index = np.concatenate(indices) if len(indices) > 1 else indices[0]
         order = index[order]
-    return SortResult(order.astype(np.uint32), time.perf_counter() - start)
+    return SortResult(order.astype(np.uint32), time.perf_counter() - start,
+                      radius_dependent=radius_dependent)
 
 
 class SortWorker:

@@ -9,7 +9,7 @@ import pytest
 from addon.blender.viewport.matrices import projection_matrix
 from addon.blender.viewport.sorting import SortInput, SortWorker, visible_order
 from addon.core.camera import look_at, simple_camera
-from addon.core.sort import depth_keys, far_to_near, radix_argsort
+from addon.core.sort import back_to_front, depth_keys, far_to_near, radix_argsort
 
 
 def test_radix_argsort_is_a_stable_sort():
@@ -29,6 +29,23 @@ def test_far_to_near_matches_depth_keys(bits):
     order = far_to_near(depth, bits)
     assert np.all(np.diff(depth[order].astype(np.float64)) <= 4.0 / (2 ** bits - 2) * 1.01)
     assert np.array_equal(order, np.argsort(depth_keys(depth, bits), kind="stable"))
+
+
+@pytest.mark.parametrize("bits", [16, 32])
+def test_back_to_front_is_the_stable_order_of_its_keys(bits):
+    """The CPU sort of the GL renderer: radix passes, same order as a stable sort of the
+    keys, hidden and non-finite splats left out."""
+    rng = np.random.default_rng(2)
+    depth = rng.uniform(1.0, 50.0, 30000)
+    depth[::5] = depth[1]  # ties keep their input order
+    depth[::11] = np.nan
+    visible = rng.random(depth.size) > 0.2
+    keys = depth_keys(depth, bits, visible)
+    stable = np.argsort(keys, kind="stable")
+    expect = stable[(visible & np.isfinite(depth))[stable]]
+    assert np.array_equal(back_to_front(depth, bits, visible), expect)
+    stable = np.argsort(depth_keys(depth, bits), kind="stable")
+    assert np.array_equal(back_to_front(depth, bits), stable[np.isfinite(depth)[stable]])
 
 
 def _camera():

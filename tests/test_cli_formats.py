@@ -88,3 +88,49 @@ def test_errors_are_one_line(testdata, tmp_path, args, word):
     assert r.returncode != 0
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and word in lines[0] and "Traceback" not in r.stderr, r.stderr
+
+
+INRIA_PROPS = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
+               "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
+
+
+def empty_ply(path):
+    """A valid INRIA 3DGS .ply with 0 vertices (header only), written by hand."""
+    header = ["ply", "format binary_little_endian 1.0", "element vertex 0"]
+    header += [f"property float {p}" for p in INRIA_PROPS] + ["end_header", ""]
+    path.write_bytes("\n".join(header).encode("ascii"))
+    return path
+
+
+def one_error_line(r) -> str:
+    assert r.returncode == 1, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
+    return lines[0]
+
+
+@pytest.mark.parametrize("out_ext", [".splat", ".ply"])
+def test_convert_refuses_zero_splats(tmp_path, out_ext):
+    src, out = empty_ply(tmp_path / "empty.ply"), tmp_path / f"out{out_ext}"
+    line = one_error_line(cli("convert", src, out))
+    assert str(src) in line and "holds no splats" in line
+    assert not out.exists()
+
+
+def test_convert_refuses_when_the_options_leave_no_splats(testdata, tmp_path):
+    out = tmp_path / "out.splat"  # a 0-splat .splat is a 0-byte file the reader rejects
+    line = one_error_line(cli("convert", testdata / "test64.ply", out, "--max-count", "0"))
+    assert str(testdata / "test64.ply") in line and "no splats left" in line
+    assert not out.exists()
+
+
+def test_info_on_zero_splats_still_answers(tmp_path):
+    """0 is a legitimate answer for info (only convert and import refuse an empty file)."""
+    src = empty_ply(tmp_path / "empty.ply")
+    r = cli("info", src, "--json")
+    assert r.returncode == 0, r.stderr
+    info = json.loads(r.stdout)
+    assert info["count"] == 0 and info["bbox_min"] is None and info["format"] == "ply"
+    r = cli("info", src)
+    assert r.returncode == 0 and "splats" in r.stdout and "Traceback" not in r.stderr, r.stderr

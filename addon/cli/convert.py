@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import sys
 
+from ..core.errors import SplatFormatError
 from ..core.formats import WRITE_FORMATS, WRITE_MAX_DEGREE, format_for_output, read_with_report, write
 from ..core.splats import AXES
 from ..core.validate import POLICIES
@@ -25,11 +26,22 @@ def configure(parser):
                              "(neutralise: invisible / identity rotation) or error")
 
 
+def _refuse_empty(args, count_in_file: int, count_kept: int) -> None:
+    """No output for zero splats, as the Blender importer refuses them: a 0-splat .splat is
+    a 0-byte file our own reader rejects, so writing one would only move the error later."""
+    if count_in_file == 0:
+        raise SplatFormatError(args.input, "holds no splats (0 vertices); nothing to convert")
+    if count_kept == 0:
+        raise SplatFormatError(args.input, f"no splats left after the options (--min-opacity, "
+                                           f"--max-count, --bad) of {count_in_file}")
+
+
 def run(args) -> int:
     fmt = format_for_output(args.output)  # fail on a bad output name before reading
     splats, report = read_with_report(args.input, sh_degree=args.sh_degree,
                                       min_opacity=args.min_opacity, max_count=args.max_count,
                                       bad=args.bad, axes=args.axes)
+    _refuse_empty(args, report.count_in_file, splats.count)
     if report.bad.total:
         print(f"warning: {args.input}: {report.bad.summary()}", file=sys.stderr)
     write(args.output, splats, fmt)

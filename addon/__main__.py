@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from .cli import UserError
@@ -30,13 +31,30 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _name(filename) -> str:
+    return os.fsdecode(filename) if isinstance(filename, (bytes, os.PathLike)) else str(filename)  # may be an fd
+
+
+def _os_error_text(exc: OSError) -> str:
+    """'<file>: <reason>' without Python's '[Errno N]' and quoting; rename-like errors name both."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    names = [_name(n) for n in (exc.filename, exc.filename2) if n is not None]
+    return f"{' -> '.join(names)}: {reason}" if names else reason
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     module = importlib.import_module(f".cli.{args.command}", __package__)
     try:
         return int(module.run(args) or 0)
-    except (SplatFormatError, UserError, FileNotFoundError, IsADirectoryError) as exc:
+    except (SplatFormatError, UserError) as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # permission denied, not a directory, disk full...: the user's to fix
+        print(f"error: {_os_error_text(exc)}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        print(f"error: out of memory running {args.command!r}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

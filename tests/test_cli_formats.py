@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pytest
 
+from addon.core.errors import SplatFormatError
 from addon.core.formats import read
 from addon.core.formats.ply import write_ply
 from addon.core.formats.synth import random_splats
@@ -134,3 +135,52 @@ def test_info_on_zero_splats_still_answers(tmp_path):
     assert info["count"] == 0 and info["bbox_min"] is None and info["format"] == "ply"
     r = cli("info", src)
     assert r.returncode == 0 and "splats" in r.stdout and "Traceback" not in r.stderr, r.stderr
+
+
+def unreadable_file():
+    """A regular, non-empty file that open() refuses even to root: a write-only sysfs attribute
+    (kernfs answers EACCES to a read open when the attribute has no read method)."""
+    for path in ("/sys/bus/pci/drivers_probe", "/sys/bus/pci/rescan", "/sys/kernel/uevent_helper"):
+        try:
+            with open(path, "rb"):
+                continue  # readable here: no use
+        except PermissionError:
+            return path
+        except OSError:
+            continue
+    pytest.skip("no write-only sysfs file to provoke PermissionError with")
+
+
+def test_read_permission_error_is_a_splat_format_error():
+    """The formats contract: every reader failure is SplatFormatError naming the file."""
+    path = unreadable_file()
+    with pytest.raises(SplatFormatError, match="Permission denied") as exc:
+        read(path)
+    assert exc.value.path == path
+
+
+@pytest.mark.parametrize("args,name", [
+    (("info", "{unreadable}"), "{unreadable}"),  # PermissionError from open()
+    (("convert", "{data}/test64.ply", "{tmp}/file/out.ply"), "{tmp}/file/out.ply"),  # parent is a file
+    (("render", "{tmp}/file", "--out", "{tmp}/file/frames"), "{tmp}/file/frames"),  # os.makedirs
+])
+def test_os_errors_are_one_line(testdata, tmp_path, args, name):
+    (tmp_path / "file").write_bytes(b"a regular file, so nothing can be created under it")
+    fill = dict(tmp=tmp_path, data=testdata,
+                unreadable=unreadable_file() if "{unreadable}" in args[1] else "")
+    line = one_error_line(cli(*[a.format(**fill) for a in args]))
+    assert name.format(**fill) in line and "Errno" not in line, line
+    assert not (tmp_path / "file" / "out.ply").exists()
+
+
+def test_memory_error_is_one_line(monkeypatch, capsys):
+    """No honest way to run out of memory in a test: the command itself raises it."""
+    from addon.__main__ import main
+    from addon.cli import info
+
+    def out_of_memory(args):
+        raise MemoryError
+    monkeypatch.setattr(info, "run", out_of_memory)
+    assert main(["info", "whatever.ply"]) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "out of memory" in lines[0], lines

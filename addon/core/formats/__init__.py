@@ -74,11 +74,14 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
     """Decode a file, handle bad values by policy `bad` ("fix", "drop", "error"), then apply
     the import options. `axes` overrides the file's axis convention (e.g. "RUB" for an spz
     written by Niantic's own tools); `format` skips detection."""
-    fmt = format or detect_format(path)
     if axes is not None and axes not in AXES:
         raise ValueError(f"axes {axes!r} is not one of {AXES}")
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
-    splats = _reader(fmt)(path, max_degree=max_degree)
+    try:  # open/read can still fail after the stat checks (permission denied, I/O error)
+        fmt = format or detect_format(path)
+        splats = _reader(fmt)(path, max_degree=max_degree)
+    except OSError as exc:
+        raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
         splats.axes = axes
     report = ReadReport(os.fspath(path), fmt, splats.count, splats.sh_degree)

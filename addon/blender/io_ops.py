@@ -12,9 +12,9 @@ from .import_splats import export_object, import_file_with_report, object_axes
 from .pointcloud import is_splat_data
 
 _AXES_ENUM = [
-    ("AUTO", "From File", "Use the file format's convention (3DGS/COLMAP .ply/.splat: y down, z forward; .spz: y up)"),
+    ("AUTO", "From File", "Y down, z forward for .ply, .splat and .spz (the .spz frame splat-transform writes)"),
     ("RDF", "Y Down, Z Forward", "3DGS / COLMAP camera frame"),
-    ("RUB", "Y Up, Z Back", "OpenGL-like frame, as in .spz"),
+    ("RUB", "Y Up, Z Back", "OpenGL-like frame: pick this for a .spz from Niantic's own tools"),
     ("RFU", "Z Up (Blender)", "No rotation"),
 ]
 _BAD_ENUM = [

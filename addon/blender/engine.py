@@ -136,7 +136,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
                 self._check()
                 rgba = to_scene_linear(out.rgba)
                 if not r.film_transparent:  # the evaluated world: its colour may be animated
-                    rgba = composite_over(rgba, _world_colour(depsgraph.scene_eval))
+                    rgba = composite_over(rgba, world_background(depsgraph.scene_eval.world))
                 _write_view(result, view, rgba, blender_depth(out.depth))
         except BaseException:
             self.end_result(result, cancel=True)
@@ -171,12 +171,13 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         from ..core.colorspace import linear_to_srgb
         from . import viewport
 
-        scene = depsgraph.scene
+        scene = depsgraph.scene_eval
         framebuffer = gpu.state.active_framebuffer_get()
         if scene.render.film_transparent:
             framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0))
         else:
-            framebuffer.clear(color=(*(float(c) for c in linear_to_srgb(_world_colour(scene))), 1.0))
+            background = linear_to_srgb(world_background(scene.world))
+            framebuffer.clear(color=(*(float(c) for c in background), 1.0))
         items = getattr(self, "_view_items", None)
         if items is None:
             items = self._view_items = collect_items(depsgraph)
@@ -195,9 +196,55 @@ def _write_view(result, view, rgba, depth):
         depth_pass.rect.foreach_set(bottom_up(depth))
 
 
-def _world_colour(scene):
-    """The world's colour (scene-linear), black without a world, as Blender's engines do."""
-    return tuple(scene.world.color) if scene.world is not None else (0.0, 0.0, 0.0)
+def world_background(world) -> tuple[float, float, float]:
+    """The scene-linear colour the splats go over when Film > Transparent is off.
+
+    Pass the EVALUATED world (`depsgraph.scene_eval.world`): node socket values and
+    world.color may be keyframed or driven, and only the evaluated copy holds their
+    value at the frame being rendered (the original keeps whatever was last written).
+
+    `world.color` is only the world's viewport display colour; Cycles and EEVEE render
+    the world's node tree (in Blender 5.0 every world has one: `World.use_nodes` is
+    deprecated and always True, so it is not consulted). So:
+    - no world: black, as Blender's engines give;
+    - the active World Output's Surface fed (through reroutes) by an unmuted Background
+      node whose Color and Strength inputs are both plain values: Color x Strength,
+      the constant background Cycles/EEVEE would render;
+    - anything else (no node tree, nothing or another shader at the output, or a
+      Background whose Color or Strength comes from other nodes such as a sky or
+      environment texture, which this engine does not evaluate): `world.color`, the
+      one flat colour the user chose for that world (and what was used before).
+    """
+    if world is None:
+        return (0.0, 0.0, 0.0)
+    background = _background_node(world.node_tree)
+    if background is not None:
+        colour, strength = background.inputs["Color"], background.inputs["Strength"]
+        if not (colour.is_linked or strength.is_linked):
+            s = float(strength.default_value)
+            return tuple(float(c) * s for c in colour.default_value[:3])
+    return tuple(float(c) for c in world.color)
+
+
+def _background_node(tree):
+    """The Background node feeding the active World Output's Surface, or None."""
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None:
+        return None
+    socket = output.inputs["Surface"]
+    for _ in range(len(tree.nodes)):  # follow reroutes; bounded, so a cycle cannot hang
+        links = [link for link in socket.links if link.is_valid and not link.is_muted]
+        if not links:
+            return None
+        node = links[0].from_node
+        if node.bl_idname == "NodeReroute":
+            socket = node.inputs[0]
+            continue
+        return node if node.bl_idname == "ShaderNodeBackground" and not node.mute else None
+    return None
 
 
 @bpy.app.handlers.persistent

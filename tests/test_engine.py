@@ -104,38 +104,6 @@ def test_half_float_exr_matches_float(bpy_empty, tmp_path):
     np.testing.assert_allclose(half, full, rtol=2.0 ** -11, atol=2.0 ** -24)
 
 
-def test_world_colour_goes_under_the_splats_when_film_is_opaque(bpy_empty, tmp_path):
-    bpy = bpy_empty
-    add_splats(bpy, "s", flat_splats([(0, 0, 0)], [(0.8, 0.2, 0.1)], scale=0.3))
-    add_camera(bpy)
-    scene = setup_render(bpy, 48, 32)
-    scene.world = bpy.data.worlds.new("World")
-    world = np.array([0.05, 0.2, 0.6], np.float32)
-    scene.world.color = world
-    set_output(scene, "EXR", tmp_path / "clear")
-    bpy.ops.render.render(write_still=True)
-    scene.render.film_transparent = False
-    set_output(scene, "EXR", tmp_path / "world")
-    bpy.ops.render.render(write_still=True)
-    clear = read_exr_parts(tmp_path / "clear.exr")["ViewLayer.Combined"]
-    opaque = read_exr_parts(tmp_path / "world.exr")["ViewLayer.Combined"]
-    assert clear[..., 3].max() > 0.95 and clear[..., 3].min() == 0.0
-    assert np.all(opaque[..., 3] == 1.0)
-    # Premultiplied "over" in scene-linear; float32 rounding of one multiply-add.
-    want = clear[..., :3] + (1.0 - clear[..., 3:]) * world
-    np.testing.assert_allclose(opaque[..., :3], want, rtol=1e-6, atol=1e-7)
-
-    # An animated world colour is taken at the frame being rendered.
-    scene.world.keyframe_insert("color", frame=1)
-    scene.world.color = (0.5, 0.25, 0.0)
-    scene.world.keyframe_insert("color", frame=3)
-    scene.frame_start = scene.frame_end = 3
-    set_output(scene, "EXR", tmp_path / "anim_####")
-    bpy.ops.render.render(animation=True)
-    animated = read_exr_parts(tmp_path / "anim_0003.exr")["ViewLayer.Combined"]
-    np.testing.assert_allclose(animated[0, 0], [0.5, 0.25, 0.0, 1.0], rtol=1e-6)
-
-
 def _render_size(bpy, scene, tmp_path, name, engine):
     scene.render.engine = engine
     set_output(scene, "EXR", tmp_path / f"{name}_{engine}")

@@ -140,3 +140,106 @@ def test_core_rejects_bad_presets(tmp_path):
     with pytest.raises(core.PresetError, match="bad.json"):
         core.load(bad)
     assert core.resolve("zmax + 0.1 * size", {"zmax": 2.0, "size": 10.0}) == pytest.approx(3.0)
+
+
+# --- What each bundled preset does for a user: expectations written by hand, not read from
+# its file, applied at a frame that is neither 0 nor 1 so relative keys are checked too.
+
+AT = 37
+
+
+def _applied(bpy, name, target=True):
+    knot, planet = _scene(bpy)
+    bpy.context.scene.frame_set(AT)
+    assert _apply(bpy, knot, name, planet if target else None) == {"FINISHED"}
+    return knot, planet
+
+
+def test_fade_in_goes_from_transparent_to_opaque_over_24_frames(bpy_empty):
+    bpy = bpy_empty
+    knot, _ = _applied(bpy, "fade_in", target=False)
+    opacity = _keys(knot)[("splatline.look.opacity", 0)]
+    assert [f for f, _ in opacity] == [37, 61]
+    assert [v for _, v in opacity] == pytest.approx([0.0, 1.0])
+    assert _item(bpy, knot, 37).opacity_scale == pytest.approx(0.0)
+    assert _item(bpy, knot, 61).opacity_scale == pytest.approx(1.0)
+    assert len(knot.splatline.effects) == 0
+
+
+def _reveal_fractions(bpy, obj, first, last):
+    """Evaluated opacity at the first and last key, relative to the capture's own."""
+    obj.splatline.effects[0].enabled = False
+    full = _item(bpy, obj, first).splats.opacities.sum()
+    obj.splatline.effects[0].enabled = True
+    return (_item(bpy, obj, first).splats.opacities.sum() / full,
+            _item(bpy, obj, last).splats.opacities.sum() / full)
+
+
+def test_dissolve_out_noise_starts_whole_and_ends_gone(bpy_empty):
+    bpy = bpy_empty
+    knot, _ = _applied(bpy, "dissolve_out_noise", target=False)
+    (effect,) = knot.splatline.effects
+    assert (effect.type, effect.reveal_shape) == ("REVEAL", "NOISE")
+    assert effect.glow_strength > 0  # "with a glowing edge"
+    frames = [f for f, _ in _keys(knot)[("splatline.effects[0].progress", 0)]]
+    assert frames == [37, 73]  # 1.5 s at 24 fps
+    start, end = _reveal_fractions(bpy, knot, 37, 73)
+    assert start > 0.99 and end < 0.01, (start, end)
+
+
+def test_sweep_reveal_sweeps_in_from_the_bottom(bpy_empty):
+    bpy = bpy_empty
+    knot, _ = _applied(bpy, "sweep_reveal", target=False)
+    (effect,) = knot.splatline.effects
+    assert (effect.type, effect.reveal_shape, effect.invert) == ("REVEAL", "PLANE", False)
+    frames = [f for f, _ in _keys(knot)[("splatline.effects[0].progress", 0)]]
+    assert frames == [37, 85]
+    start, end = _reveal_fractions(bpy, knot, 37, 85)
+    assert start < 0.01 and end > 0.99, (start, end)
+    half = _item(bpy, knot, 61).splats
+    shown = half.opacities.ravel() > 0.5 * half.opacities.max()
+    z = half.positions[:, 2]
+    assert 0 < shown.sum() < len(z) and z[shown].mean() < z[~shown].mean()  # lower half first
+
+
+def test_explode_starts_at_the_current_frame(bpy_empty):
+    bpy = bpy_empty
+    knot, _ = _applied(bpy, "explode", target=False)
+    (effect,) = knot.splatline.effects
+    size = core.bounds_context(effect_presets.read_positions(knot.data), AT)["size"]
+    assert effect.type == "EXPLODE" and effect.explode_mode == "CENTER"
+    assert effect.start_frame == pytest.approx(37.0)  # "start_frame": "frame"
+    assert (effect.strength, effect.gravity) == pytest.approx((size, size))
+    assert (effect.spread, effect.spin, effect.fade, effect.seed) == pytest.approx((0.5, 4.0, 0.6, 3))
+    rest = _item(bpy, knot, 37).splats.positions
+    later = _item(bpy, knot, 49).splats.positions
+    centre = rest.mean(axis=0)
+    assert np.linalg.norm(later - centre, axis=1).mean() > 1.2 * np.linalg.norm(rest - centre, axis=1).mean()
+
+
+def test_glitch_displace_steps_with_constant_keys(bpy_empty):
+    bpy = bpy_empty
+    knot, _ = _applied(bpy, "glitch_displace", target=False)
+    (effect,) = knot.splatline.effects
+    assert effect.type == "DISPLACE" and effect.speed == pytest.approx(8.0)
+    anim = knot.animation_data
+    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
+    curve = bag.fcurves.find("splatline.effects[0].amplitude")
+    assert curve.keyframe_points[0].co[0] == 37
+    assert {p.interpolation for p in curve.keyframe_points} == {"CONSTANT"}
+    rest = _item(bpy, knot, 37).splats.positions
+    # Held at 0 until the key at 39 (a Bezier would already be rising at 38), then a jump.
+    assert np.array_equal(_item(bpy, knot, 38).splats.positions, rest)
+    assert not np.allclose(_item(bpy, knot, 39).splats.positions, rest)
+
+
+def test_morph_turns_into_the_other_selected_object(bpy_empty):
+    bpy = bpy_empty
+    knot, planet = _applied(bpy, "morph")
+    (effect,) = knot.splatline.effects
+    assert effect.type == "MORPH" and effect.target == planet
+    assert _item(bpy, knot, 37).splats.count == len(knot.data.points)
+    end = _item(bpy, knot, 85).splats  # 2 s later: the planet itself
+    want = effect_presets.read_positions(planet.data)
+    assert end.count == len(want)
+    np.testing.assert_allclose(np.sort(end.positions, axis=0), np.sort(want, axis=0), atol=1e-4)

@@ -45,29 +45,48 @@ def guitar_blend(bpy_empty, testdata, tmp_path):
     return path
 
 
-def test_split_frame_ranges_give_identical_files(guitar_blend, tmp_path):
-    """Farm use: 1-4 in one run equals 1-2 and 3-4 in two runs, bit for bit."""
+@pytest.fixture
+def farm_blend(bpy_empty, testdata, tmp_path):
+    """Like guitar_blend, but the camera moves on every one of frames 1-10 (no held frames to
+    hide a wrong frame number), kept cheap: 32x24, 1000 splats."""
+    guitar_scene(bpy_empty, testdata, list(range(1, 11)), 32, 24, count=1000)
+    path = tmp_path / "farm.blend"
+    bpy_empty.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+@pytest.mark.xfail(strict=True, reason="pixels match, metadata does not: Blender zero-pads the 'Frame' "
+                   "stamp to frame_end's digits ('01' in a 1-10 run, '1' in a 1-5 run); "
+                   "addon/cli/render.py should turn use_stamp_frame off as it does date and render time")
+def test_split_frame_ranges_give_identical_files(farm_blend, tmp_path):
+    """Farm use: 1-10 in one run equals 1-5 and 6-10 in two runs, bit for bit."""
     runs = []
     for fmt in ("PNG", "EXR"):
         one, split = tmp_path / f"one_{fmt}", tmp_path / f"split_{fmt}"
-        runs += [(guitar_blend, "--out", one, "--format", fmt, "--frames", "1-4"),
-                 (guitar_blend, "--out", split, "--format", fmt, "--frames", "1-2"),
-                 (guitar_blend, "--out", split, "--format", fmt, "--frames", "3-4")]
+        runs += [(farm_blend, "--out", one, "--format", fmt, "--frames", "1-10"),
+                 (farm_blend, "--out", split, "--format", fmt, "--frames", "1-5"),
+                 (farm_blend, "--out", split, "--format", fmt, "--frames", "6-10")]
     _run_all(runs)
     for fmt, ext in (("PNG", "png"), ("EXR", "exr")):
-        names = [f"frame_{f:04d}.{ext}" for f in range(1, 5)]
+        names = [f"frame_{f:04d}.{ext}" for f in range(1, 11)]
         one, split = tmp_path / f"one_{fmt}", tmp_path / f"split_{fmt}"
         assert sorted(os.listdir(one)) == sorted(os.listdir(split)) == names
+        pixels = []
         for name in names:
-            assert (one / name).read_bytes() == (split / name).read_bytes(), name
             if ext == "exr":  # the pixel data, part by part (Combined, Depth)
                 a, b = read_exr_parts(one / name), read_exr_parts(split / name)
                 assert a.keys() == b.keys() == {"ViewLayer.Combined", "ViewLayer.Depth"}
                 for part in a:
                     np.testing.assert_array_equal(a[part], b[part])
                 assert a["ViewLayer.Combined"][..., 3].max() > 0.5, "frames with content"
+                pixels.append(a["ViewLayer.Combined"].tobytes())
             else:
+                pixels.append(read_image(one / name).tobytes())
+                np.testing.assert_array_equal(read_image(split / name), read_image(one / name))
                 assert read_image(one / name)[..., 3].max() > 128, "frames with content"
+        assert len(set(pixels)) == len(pixels), f"{fmt}: repeated frames; the camera moves every frame"
+        for name in names:  # last: a mismatch here is in the metadata, the pixels matched above
+            assert (one / name).read_bytes() == (split / name).read_bytes(), name
 
 
 def test_sigint_keeps_every_finished_frame(guitar_blend, tmp_path):

@@ -1,4 +1,5 @@
-"""The N-sidebar's Splatline tab, through real bpy.
+"""How users reach Splatline in the UI, through real bpy: the N-sidebar tab, the menus
+(which is also what Blender's F3 search looks through) and operator tooltips.
 
 Background mode has no UI to draw into, so each panel's draw() runs against a layout
 that records what it asks for; every property, operator, menu and icon it names is then
@@ -125,3 +126,37 @@ def test_every_operator_has_a_one_line_tooltip(bpy_empty):
                 found.append(name)
                 assert rna.description.strip() and "\n" not in rna.description, (name, rna.description)
     assert len(found) >= 14  # import, export, sequence, bake, effects, presets
+
+
+def _menu_operators(bpy, draw, context, seen=None) -> set:
+    """Operators a menu draw function shows, following the submenus it opens."""
+    seen = set() if seen is None else seen
+    layout = RecordingLayout()
+    draw(SimpleNamespace(layout=layout), context)
+    _check_names_exist(bpy, layout.record)
+    found = {what for kind, what, _ in layout.record if kind == "operator"}
+    for kind, what, _ in layout.record:
+        if kind == "menu" and what not in seen:
+            seen.add(what)
+            found |= _menu_operators(bpy, getattr(bpy.types, what).draw, context, seen)
+    return found
+
+
+def test_operators_are_reachable_from_blenders_menus(bpy_empty):
+    """Every user-facing operator is in a menu under File or Object (so F3 finds it).
+    Left to their panels: moving an effect in the stack, and adding a render-output
+    preset (the + beside the preset menu, as in Blender's own preset panels)."""
+    bpy = bpy_empty
+    obj = add_splats(bpy, "s", flat_splats(np.zeros((4, 3)), np.full((4, 3), 0.5)))
+    context = SimpleNamespace(active_object=obj, object=obj, scene=bpy.context.scene)
+    reachable = set()
+    for menu in ("TOPBAR_MT_file_import", "TOPBAR_MT_file_export", "VIEW3D_MT_object"):
+        for draw in getattr(bpy.types, menu)._dyn_ui_initialize():
+            if draw.__module__.startswith("addon."):
+                reachable |= _menu_operators(bpy, draw, context)
+    wanted = {"import_scene.splatline_gaussians", "import_scene.splatline_sequence",
+              "export_scene.splatline_gaussians", "export_scene.splatline_evaluated",
+              "splatline.bake_sequence", "splatline.effect_add", "splatline.effect_remove",
+              "splatline.effect_duplicate", "splatline.effect_add_gizmo",
+              "splatline.effect_preset_apply", "splatline.effect_preset_add"}
+    assert wanted <= reachable, wanted - reachable

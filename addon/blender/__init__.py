@@ -15,6 +15,7 @@ _MODULES = (
     "panels",         # Object / Render properties panels, N sidebar
     "presets",        # render-output preset menu and operators
     "effect_presets", # effect preset menu (appended to the effect stack panel)
+    "menus",          # Object > Splatline (effect and bake operators, for menus and F3)
 )
 
 

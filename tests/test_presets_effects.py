@@ -243,3 +243,125 @@ def test_morph_turns_into_the_other_selected_object(bpy_empty):
     want = effect_presets.read_positions(planet.data)
     assert end.count == len(want)
     np.testing.assert_allclose(np.sort(end.positions, axis=0), np.sort(want, axis=0), atol=1e-4)
+
+
+# --- Bad user presets fail whole, with a report; saving and removing through the operators.
+
+@pytest.fixture
+def user_presets(monkeypatch, tmp_path):
+    """Blender's user preset folders moved into tmp_path (never the real user's config)."""
+    monkeypatch.setenv("BLENDER_USER_SCRIPTS", str(tmp_path / "scripts"))
+    folder = tmp_path / "scripts" / "presets" / "splatline" / "effects"
+    folder.mkdir(parents=True)
+    assert effect_presets.user_dir() == folder
+    return folder
+
+
+class _Recorder:
+    """Stands in for the operator instance, to see execute's result and its reports (bpy.ops
+    turns an ERROR report into RuntimeError and drops the result)."""
+
+    def __init__(self, **props):
+        self.__dict__.update(props)
+        self.reports = []
+
+    def report(self, level, message):
+        self.reports.append((set(level), message))
+
+
+def _state(obj) -> tuple:
+    """Everything a preset may change on obj: effect stack, look, keyframes, active effect."""
+    def values(group):
+        return {k: (list(v) if hasattr(v, "__len__") and not isinstance(v, str) else v)
+                for k in group.bl_rna.properties.keys() if k != "rna_type"
+                for v in [getattr(group, k)]}
+    return ([values(e) for e in obj.splatline.effects], values(obj.splatline.look), _keys(obj),
+            obj.splatline.active_effect, obj.animation_data is None)
+
+
+BAD = {  # name -> (preset JSON, what the error must say)
+    "bad_enum": ({"look": {"keys": {"opacity": [[0, 0.0], [10, 1.0]]}},
+                  "effects": [{"type": "DISPLACE", "keys": {"amplitude": [[0, 0.0], [5, 1.0]]}},
+                              {"type": "REVEAL", "set": {"reveal_shape": "WEDGE"}}]},
+                 "WEDGE"),
+    "bad_property": ({"effects": [{"type": "TWIST", "set": {"twist": 1.0}},
+                                  {"type": "REVEAL", "keys": {"no_such": [[0, 1.0]]}}]},
+                     "no_such"),
+    "bad_type": ({"effects": [{"type": "GRADE"}], "look": {"set": {"opacity": "half"}}}, "opacity"),
+    "bad_type_name": ({"effects": [{"type": "EXPLODE"}, {"type": "SHATTER"}]}, "SHATTER"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD))
+@pytest.mark.parametrize("prior", ["fresh", "keyed"])
+def test_bad_user_preset_changes_nothing_and_reports(bpy_empty, user_presets, name, prior):
+    bpy = bpy_empty
+    data, says = BAD[name]
+    (user_presets / f"{name}.json").write_text(json.dumps(data))
+    knot, _ = _scene(bpy)
+    if prior == "keyed":
+        _apply(bpy, knot, "glitch_displace")
+    before, counts = _state(knot), (len(bpy.data.objects), len(bpy.data.actions))
+    with pytest.raises(RuntimeError) as failed:
+        _apply(bpy, knot, name)
+    assert name in str(failed.value) and says in str(failed.value)
+    assert "Traceback" not in str(failed.value)
+    assert _state(knot) == before
+    assert (len(bpy.data.objects), len(bpy.data.actions)) == counts  # no scratch left behind
+    op = _Recorder(preset=name)
+    with bpy.context.temp_override(active_object=knot, object=knot, selected_objects=[knot]):
+        assert effect_presets.SPLATLINE_OT_effect_preset_apply.execute(op, bpy.context) == {"CANCELLED"}
+    ((level, message),) = op.reports
+    assert level == {"ERROR"} and name in message and says in message
+    assert _state(knot) == before
+
+
+def _save(bpy, obj, name):
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        return bpy.ops.splatline.effect_preset_add(name=name)
+
+
+def test_save_reapply_and_remove_a_user_preset(bpy_empty, user_presets):
+    bpy = bpy_empty
+    knot, planet = _scene(bpy)
+    _apply(bpy, knot, "sweep_reveal")
+    _apply(bpy, knot, "glitch_displace")
+    assert _save(bpy, knot, "My Glitch") == {"FINISHED"}
+    path = user_presets / "my_glitch.json"
+    assert path.is_file() and presets.list_presets("effects", ".json")["my_glitch"] == path
+    bpy.context.scene.frame_set(FRAME + 7)
+    assert _apply(bpy, planet, "my_glitch") == {"FINISHED"}
+    theirs = {k: [(f - 7, v) for f, v in pts] for k, pts in _keys(planet).items()}
+    assert theirs.keys() == _keys(knot).keys()
+    for key, points in _keys(knot).items():
+        np.testing.assert_allclose(theirs[key], points, rtol=1e-6)
+    for a, b in zip(planet.splatline.effects, knot.splatline.effects):
+        assert (a.type, a.reveal_shape, a.seed, a.glow_strength) == (b.type, b.reveal_shape, b.seed, b.glow_strength)
+    assert bpy.ops.splatline.effect_preset_remove(preset="my_glitch") == {"FINISHED"}
+    assert not path.exists() and "my_glitch" not in presets.list_presets("effects", ".json")
+
+
+def test_bundled_effect_presets_cannot_be_removed(bpy_empty, user_presets):
+    bpy = bpy_empty
+    with pytest.raises(RuntimeError, match="bundled"):
+        bpy.ops.splatline.effect_preset_remove(preset="fade_in")
+    victim = user_presets.parent / "victim.json"  # outside the effect preset folder
+    victim.write_text("{}")
+    with pytest.raises(RuntimeError, match="not a user preset"):
+        bpy.ops.splatline.effect_preset_remove(preset="../victim")
+    assert victim.is_file() and presets.find_preset("fade_in", "effects", ".json").is_file()
+
+
+def test_saving_where_it_cannot_write_reports(bpy_empty, user_presets):
+    bpy = bpy_empty
+    knot, _ = _scene(bpy)
+    _apply(bpy, knot, "explode")
+    (user_presets / "blocked.json").mkdir()  # writing the preset file then fails
+    with pytest.raises(RuntimeError) as failed:
+        _save(bpy, knot, "Blocked")
+    assert "cannot save effect preset 'Blocked'" in str(failed.value)
+    assert "Traceback" not in str(failed.value)
+    op = _Recorder(name="Blocked")
+    with bpy.context.temp_override(active_object=knot, object=knot, selected_objects=[knot]):
+        assert effect_presets.SPLATLINE_OT_effect_preset_add.execute(op, bpy.context) == {"CANCELLED"}
+    assert [level for level, _ in op.reports] == [{"ERROR"}]

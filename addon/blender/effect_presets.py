@@ -2,6 +2,7 @@
 object's own stack as a new preset, remove a user preset. The format is core/effect_presets."""
 from __future__ import annotations
 
+import contextlib
 import json
 import pathlib
 
@@ -19,21 +20,61 @@ USER_SUBDIR = "presets/splatline/effects"
 def apply_preset(obj, preset: core.EffectPreset, frame: float, target=None) -> list:
     """Append the preset's effects to obj's stack and key them relative to frame.
 
-    Returns the new effect items. A MORPH effect takes `target` (another splat object);
-    without one it is an error, raised before anything is changed.
+    Returns the new effect items. A MORPH effect takes `target` (another splat object).
+    All or nothing: every problem raises core.PresetError naming the preset, before obj
+    changes (the preset is first applied to a scratch object, see _rehearse).
     """
     if any(block.type == "MORPH" for block in preset.effects) and target is None:
-        raise ValueError(f"preset {preset.label!r} morphs: select a second splat object as the target")
+        raise core.PresetError(f"{_name(preset)}: morphs, so select a second splat object "
+                               "as the target")
     context = core.bounds_context(read_positions(obj.data), frame)
+    _rehearse(preset, frame, target, context)
+    return _apply_all(obj, preset, frame, target, context)
+
+
+# What a bad preset raises from bpy or resolve(): unknown or read-only property (AttributeError,
+# ValueError), wrong type or enum value (TypeError), wrong vector length (ValueError), a
+# property that can't be keyed (TypeError), an expression dividing by a zero size.
+_PRESET_FAULTS = (AttributeError, KeyError, TypeError, ValueError, ZeroDivisionError, RuntimeError)
+
+
+def _rehearse(preset, frame, target, context) -> None:
+    """Apply the preset to a scratch object that no scene holds, so that a bad value
+    anywhere in it fails here, before the user's object has half the preset: undoing a
+    partial apply would mean restoring F-curves that may have held keys of their own."""
+    scratch = bpy.data.objects.new("splatline preset check", None)
+    try:
+        _apply_all(scratch, preset, frame, target, context)
+    except _PRESET_FAULTS as exc:
+        raise core.PresetError(f"{_name(preset)}: {_one_line(exc)}") from None
+    finally:
+        anim = scratch.animation_data
+        action = anim.action if anim is not None else None
+        bpy.data.objects.remove(scratch)
+        if action is not None and action.users == 0:
+            bpy.data.actions.remove(action)
+
+
+def _name(preset) -> str:
+    return f"effect preset {preset.name!r}"
+
+
+def _one_line(exc) -> str:
+    text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+    return " ".join(text.replace("bpy_struct: item.attr = val: ", "").split())
+
+
+def _apply_all(obj, preset, frame, target, context) -> list:
     added = []
     if preset.look is not None:
         _apply_block(obj, obj.splatline.look, "splatline.look", preset.look, frame, context)
     for block in preset.effects:
         effect = obj.splatline.effects.add()
-        effect.type = block.type
+        index = len(obj.splatline.effects) - 1
+        with _where(f"effects[{index}].type"):
+            effect.type = block.type
         if block.type == "MORPH":
             effect.target = target
-        index = len(obj.splatline.effects) - 1
         _apply_block(obj, effect, f"splatline.effects[{index}]", block, frame, context)
         added.append(effect)
     obj.splatline.active_effect = len(obj.splatline.effects) - 1
@@ -42,12 +83,25 @@ def apply_preset(obj, preset: core.EffectPreset, frame: float, target=None) -> l
 
 def _apply_block(obj, group, path, block: core.Block, frame, context):
     for prop, value in block.set.items():
-        _assign(group, prop, core.resolve(value, context))
+        with _where(f"{path}.{prop}"):
+            _assign(group, prop, core.resolve(value, context))
     for prop, points in block.keys.items():
         for offset, value in points:
-            _assign(group, prop, core.resolve(value, context))
-            obj.keyframe_insert(data_path=f"{path}.{prop}", frame=frame + offset)
+            with _where(f"{path}.{prop}"):
+                _assign(group, prop, core.resolve(value, context))
+                obj.keyframe_insert(data_path=f"{path}.{prop}", frame=frame + offset)
         _set_interpolation(obj, f"{path}.{prop}", block.interpolation)
+
+
+@contextlib.contextmanager
+def _where(path):
+    """Prefix an error with the property it came from (the preset's own words)."""
+    try:
+        yield
+    except core.PresetError:
+        raise
+    except _PRESET_FAULTS as exc:
+        raise core.PresetError(f"{path.removeprefix('splatline.')}: {_one_line(exc)}") from None
 
 
 def _assign(group, prop, value):
@@ -66,7 +120,12 @@ def _set_interpolation(obj, data_path, interpolation):
 
 
 def user_dir() -> pathlib.Path:
-    return pathlib.Path(bpy.utils.user_resource("SCRIPTS", path=USER_SUBDIR, create=True))
+    """Where saved effect presets go: Blender's user scripts folder (moved, as all of
+    Blender's user presets are, by the BLENDER_USER_SCRIPTS environment variable)."""
+    folder = bpy.utils.user_resource("SCRIPTS", path=USER_SUBDIR, create=True)
+    if not folder:  # Blender gives "" when it cannot create it: never write to the cwd
+        raise OSError(f"cannot create the user preset folder {USER_SUBDIR}")
+    return pathlib.Path(folder)
 
 
 def capture_preset(obj, frame: float, label: str) -> dict:
@@ -116,6 +175,10 @@ def _keys_for(obj, prefix, frame) -> dict:
     return keys
 
 
+def _os_text(exc: OSError) -> str:
+    return f"{exc.filename}: {exc.strerror}" if exc.filename and exc.strerror else str(exc)
+
+
 def _active_splat_object(context):
     obj = context.active_object
     return obj if is_splat_object(obj) else None
@@ -139,8 +202,8 @@ class SPLATLINE_OT_effect_preset_apply(bpy.types.Operator):
         try:
             preset = core.load(find_preset(self.preset, "effects", ".json"))
             apply_preset(obj, preset, context.scene.frame_current, others[0] if others else None)
-        except (KeyError, ValueError, core.PresetError) as exc:
-            self.report({"ERROR"}, str(exc).strip("'\""))
+        except (KeyError, core.PresetError) as exc:  # apply_preset turns bpy's errors into these
+            self.report({"ERROR"}, _one_line(exc))
             return {"CANCELLED"}
         self.report({"INFO"}, f"{preset.label}: added to {obj.name} at frame {context.scene.frame_current}")
         return {"FINISHED"}
@@ -163,9 +226,16 @@ class SPLATLINE_OT_effect_preset_add(bpy.types.Operator):
 
     def execute(self, context):
         obj = _active_splat_object(context)
+        if not self.name.strip():
+            self.report({"ERROR"}, "an effect preset needs a name")
+            return {"CANCELLED"}
         data = capture_preset(obj, context.scene.frame_current, self.name)
-        path = user_dir() / (bpy.path.clean_name(self.name).lower() + ".json")
-        path.write_text(json.dumps(data, indent=1))
+        try:
+            path = user_dir() / (bpy.path.clean_name(self.name.strip()).lower() + ".json")
+            path.write_text(json.dumps(data, indent=1))
+        except OSError as exc:
+            self.report({"ERROR"}, f"cannot save effect preset {self.name!r}: {_os_text(exc)}")
+            return {"CANCELLED"}
         self.report({"INFO"}, f"saved {path}")
         return {"FINISHED"}
 
@@ -178,11 +248,17 @@ class SPLATLINE_OT_effect_preset_remove(bpy.types.Operator):
     preset: bpy.props.StringProperty(name="Preset")
 
     def execute(self, context):
-        path = user_dir() / f"{self.preset}.json"
-        if not path.is_file():
-            self.report({"ERROR"}, f"{self.preset}: not a user preset (bundled presets can't be removed)")
+        try:
+            # A bare file stem only: the name must not reach outside the preset folder.
+            path = user_dir() / f"{pathlib.Path(self.preset).name}.json"
+            if not self.preset or path.stem != self.preset or not path.is_file():
+                self.report({"ERROR"}, f"{self.preset}: not a user preset (bundled presets can't be removed)")
+                return {"CANCELLED"}
+            path.unlink()
+        except OSError as exc:
+            self.report({"ERROR"}, f"cannot remove effect preset {self.preset!r}: {_os_text(exc)}")
             return {"CANCELLED"}
-        path.unlink()
+        self.report({"INFO"}, f"removed {path}")
         return {"FINISHED"}
 
 
@@ -205,7 +281,11 @@ class SPLATLINE_MT_effect_presets_remove(bpy.types.Menu):
     bl_label = "Remove Saved Preset"
 
     def draw(self, context):
-        for path in sorted(user_dir().glob("*.json")):
+        try:
+            paths = sorted(user_dir().glob("*.json"))
+        except OSError:  # no user folder: nothing saved to remove
+            paths = []
+        for path in paths:
             self.layout.operator(SPLATLINE_OT_effect_preset_remove.bl_idname,
                                  text=_label(path)).preset = path.stem
 

@@ -55,9 +55,6 @@ def farm_blend(bpy_empty, testdata, tmp_path):
     return path
 
 
-@pytest.mark.xfail(strict=True, reason="pixels match, metadata does not: Blender zero-pads the 'Frame' "
-                   "stamp to frame_end's digits ('01' in a 1-10 run, '1' in a 1-5 run); "
-                   "addon/cli/render.py should turn use_stamp_frame off as it does date and render time")
 def test_split_frame_ranges_give_identical_files(farm_blend, tmp_path):
     """Farm use: 1-10 in one run equals 1-5 and 6-10 in two runs, bit for bit."""
     runs = []

@@ -5,9 +5,10 @@ step, border, resolution percentage and every output format behave as in Blender
 Progress and the time of each frame come from Blender's render handlers.
 
 Farm use: splitting a frame range across runs gives the same files as one run. For
-that the files must not carry the render date or render time (Blender stamps both
-into PNG/EXR metadata by default); this command turns those two fields off unless
---keep-stamp is given.
+that the files must not carry metadata that differs between runs or machines: Blender
+stamps the date and render time by default, and pads the frame number to the digits of
+the run's last frame ("01" in a 1-10 run, "1" in a 1-5 run). This command turns every
+such field off (UNREPRODUCIBLE_STAMPS) unless --keep-stamp is given.
 
 Ctrl+C (SIGINT) stops at the frame being rendered: every finished frame stays on disk
 and readable, the unfinished one is not written, and the command exits with 130.
@@ -26,6 +27,12 @@ from . import UserError
 FORMATS = ("EXR", "PNG", "MP4")
 _BOOL = {"1": True, "true": True, "on": True, "yes": True,
          "0": False, "false": False, "off": False, "no": False}
+
+
+# Metadata fields that differ between runs of the same frames (frame: its zero padding
+# follows the run's last frame), or between farm machines.
+UNREPRODUCIBLE_STAMPS = ("use_stamp_date", "use_stamp_render_time", "use_stamp_frame",
+                         "use_stamp_frame_range", "use_stamp_memory", "use_stamp_hostname")
 
 
 def configure(parser):
@@ -47,7 +54,7 @@ def configure(parser):
                         help="a Splatline render setting, e.g. key_bits=16, gpu_sort=off, "
                              "antialiased=on, renderer=REFERENCE (repeatable)")
     parser.add_argument("--keep-stamp", action="store_true",
-                        help="keep the render date and time in the files' metadata (not reproducible)")
+                        help="keep the render date, time, frame and host in the files' metadata (not reproducible)")
 
 
 def parse_frames(text: str) -> tuple[int, int]:
@@ -195,8 +202,8 @@ def _prepare(bpy, args):
     if scene.render.image_settings.media_type == "VIDEO":
         _check_video_size(scene)
     if not args.keep_stamp:
-        scene.render.use_stamp_date = False
-        scene.render.use_stamp_render_time = False
+        for field in UNREPRODUCIBLE_STAMPS:
+            setattr(scene.render, field, False)
     if scene.camera is None:
         raise UserError(f"{args.blend}: scene {scene.name!r} has no camera")
     return scene

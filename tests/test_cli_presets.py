@@ -1,6 +1,8 @@
 """Presets from the command line: `render --preset NAME` and `import --effect-preset NAME`."""
 from __future__ import annotations
 
+import json
+import os
 import subprocess
 import sys
 
@@ -14,9 +16,9 @@ from addon.core.formats import write
 from conftest import ROOT
 
 
-def _cli(*args, timeout=180):
+def _cli(*args, timeout=180, env=None):
     return subprocess.run([sys.executable, "-m", "addon", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=timeout)
+                          capture_output=True, text=True, timeout=timeout, env=env)
 
 
 @pytest.fixture
@@ -82,4 +84,27 @@ def test_import_morph_preset_needs_two_files(tmp_path):
     proc = _cli("import", knot, "--blend", tmp_path / "x.blend", "--effect-preset", "morph")
     assert proc.returncode != 0 and "two files" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "x.blend").exists()
+
+
+@pytest.mark.parametrize("name, preset, says", [
+    ("bad_enum", {"effects": [{"type": "DISPLACE"}, {"type": "REVEAL", "set": {"reveal_shape": "WEDGE"}}]},
+     "WEDGE"),
+    ("bad_property", {"look": {"keys": {"opacity": [[0, 0.0], [9, 1.0]]}},
+                      "effects": [{"type": "TWIST", "set": {"no_such": 1.0}}]}, "no_such"),
+])
+def test_import_bad_user_effect_preset_is_one_line(tmp_path, name, preset, says):
+    """A user's own preset (in Blender's user preset folder) that bpy rejects: one line, no
+    traceback, no .blend."""
+    scripts = tmp_path / "scripts"
+    folder = scripts / "presets" / "splatline" / "effects"
+    folder.mkdir(parents=True)
+    (folder / f"{name}.json").write_text(json.dumps(preset))
+    knot = tmp_path / "knot.ply"
+    write(knot, procedural.torus_knot(500, degree=0))
+    proc = _cli("import", knot, "--blend", tmp_path / "x.blend", "--effect-preset", name,
+                env=dict(os.environ, BLENDER_USER_SCRIPTS=str(scripts)))
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr, proc.stderr
+    (line,) = proc.stderr.strip().splitlines()
+    assert line.startswith("error: ") and name in line and says in line
     assert not (tmp_path / "x.blend").exists()

@@ -89,7 +89,10 @@ def _apply_effect_presets(bpy, names, objects) -> None:
             raise UserError(f"--effect-preset {name}: morphs the first file into the second, "
                             f"so it needs exactly two files ({len(objects)} given)")
         for obj in objects[:1] if morphs else objects:
-            apply_preset(obj, preset, frame, target=objects[1] if morphs else None)
+            try:  # all or nothing per object; no .blend is written after an error
+                apply_preset(obj, preset, frame, target=objects[1] if morphs else None)
+            except effect_presets.PresetError as exc:
+                raise UserError(f"--effect-preset: {exc}") from None
         print(f"{preset.label}: keyed from frame {frame}")
 
 

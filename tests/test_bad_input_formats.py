@@ -3,6 +3,7 @@ array is sized from an unchecked header."""
 from __future__ import annotations
 
 import gzip
+import os
 import struct
 import tracemalloc
 
@@ -267,3 +268,16 @@ def test_nan_inf_zero_quaternion_drop_and_error(bad_values_ply):
     np.testing.assert_array_equal(s.positions, src.positions[[0, 5, 6, 7, 8, 9]])
     msg = fails(path, "nan/inf", "zero quaternion", bad="error")
     assert "3 splats" in msg
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".splat"])
+def test_writers_report_a_full_disk(tmp_path, small, suffix):
+    """/dev/full refuses every write with ENOSPC, as a disk that fills up does; the
+    writer must say so, not leave a truncated file behind a success."""
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full on this system")
+    target = tmp_path / f"full{suffix}"
+    target.symlink_to("/dev/full")
+    with pytest.raises(SplatFormatError, match="No space left") as err:
+        write(target, small)
+    assert str(target) in str(err.value)

@@ -34,6 +34,20 @@ def read_bytes(path, limit: int) -> bytes:
         return f.read()
 
 
+def write_file(path, *parts) -> None:
+    """Write bytes-like parts (numpy arrays included) to path; any failure, the final
+    close included, raises SplatFormatError naming the file.
+
+    Not ndarray.tofile: it writes through a duplicated descriptor and drops the error
+    of its close, so a disk that fills up left a truncated file and no error."""
+    try:
+        with open(path, "wb") as f:
+            for part in parts:
+                f.write(part.view(np.uint8).data if isinstance(part, np.ndarray) else part)
+    except OSError as exc:
+        raise SplatFormatError(path, f"cannot write: {exc.strerror or exc}") from None
+
+
 def sigmoid_(x: np.ndarray) -> np.ndarray:
     """In-place logistic function."""
     np.negative(x, out=x)

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
-from ._common import logit, normalize_quats_, sigmoid_
+from ._common import logit, normalize_quats_, sigmoid_, write_file
 from .plyheader import parse_header, read_body
 
 POS = ("x", "y", "z")
@@ -178,9 +178,4 @@ def write_ply(path, splats: SplatSet) -> None:
     lines = ["ply", "format binary_little_endian 1.0", "comment written by Splatline",
              f"element vertex {splats.count}"]
     lines += [f"property float {name}" for name in rec.dtype.names] + ["end_header", ""]
-    try:
-        with open(path, "wb") as f:
-            f.write("\n".join(lines).encode("ascii"))
-            rec.tofile(f)
-    except OSError as exc:
-        raise SplatFormatError(path, f"cannot write: {exc.strerror or exc}") from None
+    write_file(path, "\n".join(lines).encode("ascii"), rec)

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RDF, SplatSet
-from ._common import file_size, normalize_quats_
+from ._common import file_size, normalize_quats_, write_file
 
 RECORD = np.dtype([("position", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4), ("rot", "u1", 4)])
 assert RECORD.itemsize == 32
@@ -53,7 +53,4 @@ def encode_splat(splats: SplatSet) -> np.ndarray:
 def write_splat(path, splats: SplatSet) -> None:
     """Writes in the given order (no reordering), so a write/read round trip keeps indices."""
     splats.check()
-    try:
-        encode_splat(splats).tofile(path)
-    except OSError as exc:
-        raise SplatFormatError(path, f"cannot write: {exc.strerror or exc}") from None
+    write_file(path, encode_splat(splats))

@@ -105,3 +105,80 @@ def _part_specs(oiio, path):
         index += 1
     image.close()
     return specs
+
+
+# --- Saving and removing presets with the Add/Remove buttons (Blender's AddPresetBase).
+
+@pytest.fixture
+def user_render_presets(monkeypatch, tmp_path):
+    """Blender's user preset folders moved into tmp_path (never the real user's config)."""
+    monkeypatch.setenv("BLENDER_USER_SCRIPTS", str(tmp_path / "scripts"))
+    return tmp_path / "scripts" / "presets" / "splatline" / "render"
+
+
+def _ffmpeg(scene):
+    f = scene.render.ffmpeg
+    return (scene.render.image_settings.file_format, f.format, f.codec, f.ffmpeg_prores_profile,
+            f.constant_rate_factor, f.ffmpeg_preset, scene.render.resolution_percentage)
+
+
+@pytest.mark.parametrize("bundled, change", [
+    ("prores_422", dict(ffmpeg_prores_profile="4444")),
+    ("h264_mp4", dict(constant_rate_factor="PERC_LOSSLESS", ffmpeg_preset="BEST")),
+])
+def test_saved_video_preset_restores_its_codec_settings(bpy_empty, user_render_presets, bundled, change):
+    bpy = bpy_empty
+    scene = bpy.context.scene
+    presets.apply_render_preset(bundled)
+    for attr, value in change.items():
+        setattr(scene.render.ffmpeg, attr, value)
+    scene.render.resolution_percentage = 75
+    saved = _ffmpeg(scene)
+    assert bpy.ops.splatline.render_preset_add(name="My Video") == {"FINISHED"}
+    path = user_render_presets / "My_Video.py"
+    assert path.is_file() and presets.find_preset("My Video") == path
+    presets.apply_render_preset("png_16bit")  # something else entirely
+    ffmpeg = scene.render.ffmpeg
+    ffmpeg.ffmpeg_prores_profile, ffmpeg.constant_rate_factor, ffmpeg.ffmpeg_preset = "422_PROXY", "LOW", "REALTIME"
+    assert _ffmpeg(scene) != saved
+    presets.apply_render_preset("My Video")
+    assert _ffmpeg(scene) == saved
+
+
+@pytest.mark.parametrize("bundled", sorted(EXPECT))
+def test_every_bundled_preset_survives_save_and_load(bpy_empty, user_render_presets, bundled):
+    bpy = bpy_empty
+    scene = bpy.context.scene
+    other = "png_16bit" if bundled != "png_16bit" else "prores_422"
+    presets.apply_render_preset(other)
+    presets.apply_render_preset(bundled)
+    image = scene.render.image_settings
+    saved = (_ffmpeg(scene), image.media_type, image.color_mode, image.color_depth)
+    assert bpy.ops.splatline.render_preset_add(name=f"copy of {bundled}") == {"FINISHED"}
+    presets.apply_render_preset(other)
+    presets.apply_render_preset(f"copy of {bundled}")  # raises if the saved file fails to run
+    assert (_ffmpeg(scene), image.media_type, image.color_mode, image.color_depth) == saved
+
+
+def test_remove_saved_render_preset(bpy_empty, user_render_presets):
+    bpy = bpy_empty
+    presets.apply_render_preset("preview")
+    for name in ("Keep Me", "Drop Me"):
+        assert bpy.ops.splatline.render_preset_add(name=name) == {"FINISHED"}
+    keep, drop = user_render_presets / "Keep_Me.py", user_render_presets / "Drop_Me.py"
+    presets.apply_render_preset("Drop Me")  # the menu's active preset: what "-" removes
+    assert bpy.ops.splatline.render_preset_add(remove_active=True) == {"FINISHED"}
+    assert not drop.exists() and keep.is_file()
+    assert "Drop_Me" not in presets.list_presets("render")
+    assert bpy.ops.splatline.render_preset_add(name="Keep Me", remove_name=True) == {"FINISHED"}
+    assert not keep.exists()
+
+
+def test_removing_a_bundled_render_preset_says_why(bpy_empty, user_render_presets):
+    bpy = bpy_empty
+    presets.apply_render_preset("prores_422")
+    with pytest.raises(RuntimeError, match="prores 422: a bundled output preset"):
+        bpy.ops.splatline.render_preset_add(remove_active=True)
+    assert presets.find_preset("prores_422").is_file()
+    with pytest.raises(RuntimeError, match="no saved output preset"):
+        bpy.ops.splatline.render_preset_add(name="Never Saved", remove_name=True)

@@ -311,3 +311,49 @@ def test_growing_splats_resort_only_when_the_order_culled_by_radius(gpu_ready):
         img, _ = draw_offscreen([grown], cam, renderer=r)
         assert r.stats.sorts == 1 + resorts
         assert psnr(img, draw_offscreen([grown], cam)[0]) == float("inf")
+
+
+def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
+    """A Reveal's gizmo, a morph target and the object's own transform feed its effects:
+    moving any of them by hand (no frame change) must show in the viewport's items, while
+    a splat object without effects still reuses its data on a transform-only move."""
+    from addon.blender import viewport
+    from addon.blender.evaluate import item_for
+    from animation_scene import add_object, grid_splats
+
+    bpy = bpy_empty
+    obj = add_object("cap", grid_splats(n_side=5))
+    target = add_object("goal", grid_splats(n_side=5, seed=9), location=(0.0, 0.0, 2.0))
+    plain = add_object("plain", grid_splats(n_side=3, seed=4))
+    bpy.context.view_layer.objects.active = obj
+    with bpy.context.temp_override(object=obj):
+        bpy.ops.splatline.effect_add(type="REVEAL")
+        bpy.ops.splatline.effect_add_gizmo()
+        bpy.ops.splatline.effect_add(type="MORPH")
+    reveal, morph = obj.splatline.effects
+    reveal.progress, morph.target, morph.amount = 0.0, target, 0.5
+    cache = viewport.drawer().items
+
+    def current():
+        bpy.context.view_layer.update()
+        items, _ = cache.collect(bpy.context)
+        return {i.key[0]: i for i in items}
+
+    def fresh():
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        return item_for(bpy.data.objects["cap"].evaluated_get(depsgraph), depsgraph)
+
+    before = current()
+    for move in (lambda: setattr(reveal.gizmo, "location", (0.0, 0.0, -0.3)),
+                 lambda: setattr(target, "location", (1.0, 0.0, 2.0)),
+                 lambda: setattr(obj, "rotation_euler", (0.0, 0.4, 0.0))):
+        move()
+        now = current()
+        assert not np.array_equal(now["cap"].splats.positions, before["cap"].splats.positions) or \
+            not np.array_equal(now["cap"].splats.opacities, before["cap"].splats.opacities)
+        np.testing.assert_array_equal(now["cap"].splats.positions, fresh().splats.positions)
+        np.testing.assert_array_equal(now["cap"].splats.opacities, fresh().splats.opacities)
+        assert now["plain"].splats is before["plain"].splats  # nothing it reads moved
+        before = now
+    plain.location = (0.0, 3.0, 0.0)
+    assert current()["plain"].splats is before["plain"].splats  # transform only: no re-read

@@ -42,6 +42,24 @@ def time_dependent(obj) -> bool:
     return False
 
 
+def effect_inputs(obj) -> set[str]:
+    """Names of the objects whose transform or data the object's effects read.
+
+    Its own: effect fields sit at its origin in world-aligned axes, or in a gizmo's
+    frame, so moving the object moves the splats through them. Then every effect's
+    gizmo and morph target. Empty without effects: a move is then transform-only.
+    """
+    effects = getattr(getattr(obj, "splatline", None), "effects", ())
+    if not len(effects):
+        return set()
+    names = {obj.name}
+    for effect in effects:
+        for ref in (effect.gizmo, effect.target):
+            if ref is not None:
+                names.add(ref.name)
+    return names
+
+
 def settings_signature(obj, skip=("display",)) -> tuple:
     """The values of Object.splatline except the viewport-only display options.
 
@@ -93,9 +111,11 @@ class SceneItems:
         edit on the object (display options included) sets all three, and there the
         settings signature decides whether the data can have changed.
         """
-        unchanged = set()
+        unchanged, moved = set(), set()
         for update in depsgraph.updates:
             ident = update.id
+            if isinstance(ident, bpy.types.Object) and (update.is_updated_transform or update.is_updated_geometry):
+                moved.add(ident.original.name)
             if not isinstance(ident, bpy.types.Object) or not update.is_updated_geometry:
                 continue
             name = ident.original.name
@@ -109,6 +129,15 @@ class SceneItems:
         for update in depsgraph.updates:
             if isinstance(update.id, bpy.types.PointCloud):
                 self._invalidate_users(update.id.original, skip=unchanged)
+        if moved:
+            self._invalidate_readers(moved)
+
+    def _invalidate_readers(self, moved: set) -> None:
+        """Objects whose effects read a moved or edited object (see effect_inputs)."""
+        for name in list(self.items):
+            obj = bpy.data.objects.get(name)
+            if obj is not None and not moved.isdisjoint(effect_inputs(obj)):
+                self.invalidate(name)
 
     def _invalidate_users(self, data, skip=()) -> None:
         for name in list(self.items):

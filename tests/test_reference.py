@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from addon.core.camera import Camera, look_at
+from addon.core.camera import Camera, look_at, simple_camera
 from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sh import C0, C1
@@ -220,3 +220,26 @@ def test_front_to_back_equals_back_to_front_over():
         acc = singles[i] + (1 - a) * acc  # singles are premultiplied: alpha c + (1-alpha) C
     # Each single is rounded to float32 before this blend: a few float32 steps.
     np.testing.assert_allclose(out.rgba, acc, atol=2e-6)
+
+
+def test_window_is_the_same_pixels_of_the_full_frame():
+    """window= renders part of the frame with the frame's own projection: bitwise the
+    slice of the full render, across tile boundaries, splats straddling its edges."""
+    rng = np.random.default_rng(5)
+    n = 60
+    s = SplatSet.allocate(n, 1)
+    s.positions[:] = rng.uniform(-1.5, 1.5, (n, 3))
+    s.scales[:] = rng.uniform(0.05, 0.4, (n, 3))
+    s.rotations[:] = [1.0, 0.0, 0.0, 0.0]
+    s.opacities[:] = rng.uniform(0.3, 0.9, n)
+    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
+    s.sh_rest[:] = rng.normal(0.0, 0.2, s.sh_rest.shape)
+    camera = simple_camera(300, 280, 50.0, look_at((0.0, -5.0, 0.5), (0.0, 0.0, 0.0)), near=0.1, far=100.0)
+    full = render([RenderItem(s)], camera)
+    x, y, w, h = 37, 250, 263, 30  # crosses the tile edge at x = 256, ends at the frame's edge
+    part = render([RenderItem(s)], camera, window=(x, y, w, h))
+    assert full.rgba[y:y + h, x:x + w, 3].max() > 0.2
+    np.testing.assert_array_equal(part.rgba, full.rgba[y:y + h, x:x + w])
+    np.testing.assert_array_equal(part.depth, full.depth[y:y + h, x:x + w])
+    with pytest.raises(ValueError, match="not inside"):
+        render([RenderItem(s)], camera, window=(x, y, w + 1, h))

@@ -35,20 +35,28 @@ T_STOP = 1e-4  # INRIA's early-termination threshold on transmittance
 TILE = 256
 
 
-def render(items: list[RenderItem], camera: Camera, options: RenderOptions = RenderOptions()) -> RenderOutput:
-    """Render items through camera: premultiplied sRGB RGBA + depth, float32, top-down."""
+def render(items: list[RenderItem], camera: Camera, options: RenderOptions = RenderOptions(),
+           window: tuple[int, int, int, int] | None = None) -> RenderOutput:
+    """Render items through camera: premultiplied sRGB RGBA + depth, float32, top-down.
+
+    window (x, y, width, height) renders only those pixels of the camera's frame, with
+    the frame's own projection (J clamp included): a crop of a huge frame, exactly.
+    A crop *camera* would differ where the clamp window follows the frame's edges."""
+    wx, wy, w, h = window if window is not None else (0, 0, camera.width, camera.height)
+    if not (0 <= wx and 0 <= wy and w > 0 and h > 0 and wx + w <= camera.width and wy + h <= camera.height):
+        raise ValueError(f"window {window} is not inside the {camera.width}x{camera.height} frame")
     splats = _gather(items, camera, options)
-    h, w = camera.height, camera.width
     rgba = np.empty((h, w, 4), np.float32)
     depth = np.empty((h, w), np.float32)
     bg = np.asarray(options.background, np.float64)
-    for y0 in range(0, h, TILE):
-        for x0 in range(0, w, TILE):
-            y1, x1 = min(y0 + TILE, h), min(x0 + TILE, w)
+    for y0 in range(wy, wy + h, TILE):
+        for x0 in range(wx, wx + w, TILE):
+            y1, x1 = min(y0 + TILE, wy + h), min(x0 + TILE, wx + w)
             c, t, d = _render_tile(splats, x0, y0, x1, y1, options.early_termination)
-            rgba[y0:y1, x0:x1, :3] = c + t[..., None] * bg[:3]
-            rgba[y0:y1, x0:x1, 3] = (1.0 - t) + t * bg[3]
-            depth[y0:y1, x0:x1] = d
+            out = (slice(y0 - wy, y1 - wy), slice(x0 - wx, x1 - wx))
+            rgba[out + (slice(0, 3),)] = c + t[..., None] * bg[:3]
+            rgba[out + (3,)] = (1.0 - t) + t * bg[3]
+            depth[out] = d
     return RenderOutput(rgba, depth)
 
 

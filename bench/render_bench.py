@@ -183,6 +183,9 @@ def main():
             OffscreenRenderer(depth_pass=False, compute=False) as fallback:
         renderers = {"colour": colour, "depth": depth, "fallback": fallback}
         print(f"GL: {colour.gl_info.get('GL_RENDERER')} ({colour.gl_info.get('GL_VERSION')})")
+        if not colour.uses_compute:  # the "GPU sort" rows would silently be the fallback's
+            print("WARNING: no GL 4.3 compute shaders here: every gl row runs the GL 3.3 fallback "
+                  "(CPU preprocess and sort)")
         items, time_cam, err_cam = guitar_scene()
         w, h = GUITAR_SIZE
         print_table(f"guitar, 90,854 splats, SH 0, {w}x{h}; error and time on the same frame; "

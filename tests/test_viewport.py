@@ -3,9 +3,10 @@ mode (a bl_use_gpu_context engine renders one tiny frame), drawing into a GPUOff
 
 PSNR bound, 60 dB (RMS error <= 1e-3, a quarter of an 8-bit step):
 - Order: the viewport sorts on quantised keys, the reference on float64 depths. Each
-  test first checks that no two visible splats share a key at the precision drawn
-  (16-bit buckets are range/65535 deep: ~40 um here), so both orders are the same and
-  the key precision contributes nothing; what is left is arithmetic.
+  test first runs the viewport's own cull and sort (its depth range, its key bits) and
+  checks it gives exactly the float64 order of the splats it keeps (16-bit buckets are
+  range/65535 deep: ~40 um here), so the key precision contributes nothing; what is
+  left is arithmetic.
 - Arithmetic: float32 on the GPU against float64. Relative errors ~1e-6 per operation,
   amplified by exp() of Mahalanobis distances up to 9 and by the 2D covariance of thin
   splats, stay below 1e-3 per pixel; the RMS over the frame is far lower. A semantic
@@ -20,7 +21,6 @@ import pytest
 from addon.core import reference
 from addon.core.project import project
 from addon.core.scene import RenderOptions
-from addon.core.sort import depth_keys
 from viewport_scene import camera_for, draw_offscreen, psnr, two_objects
 
 PSNR_MIN = 60.0
@@ -41,10 +41,21 @@ def scene(testdata):
     return items, camera, reference.render(items, camera, RenderOptions()).rgba
 
 
-def _keys_distinct(items, camera, bits) -> bool:
-    depth = np.concatenate([project(i, camera).depth[project(i, camera).valid] for i in items])
-    keys = depth_keys(depth, bits)
-    return np.unique(keys).size == keys.size
+def _viewport_order_is_exact(items, camera, bits) -> bool:
+    """The viewport's cull + quantised sort, as its renderer calls it, gives the float64
+    reference order for every splat it keeps."""
+    from addon.blender.viewport.gpu_draw import view_constants
+    from addon.blender.viewport.matrices import projection_matrix
+    from addon.blender.viewport.sorting import SortInput, visible_order
+
+    proj = projection_matrix(camera)
+    _, _, near, far = view_constants(proj, camera.width, camera.height)["frame"]
+    inputs = [SortInput.of(i.splats.positions, camera.world_to_camera @ i.world, scales=i.splats.scales)
+              for i in items]
+    order = visible_order(inputs, proj, near, far, bits).order
+    depth = np.concatenate([project(i, camera).depth for i in items])  # float64, every splat
+    exact = order[np.argsort(-depth[order], kind="stable")]  # farthest first
+    return order.size > 0 and np.array_equal(order, exact)
 
 
 @pytest.mark.parametrize("bits", [16, 32])
@@ -53,7 +64,7 @@ def test_matches_reference(gpu_ready, scene, bits):
 
     items, camera, ref = scene
     assert items[0].splats.sh_degree == 3 and items[1].splats.sh_degree == 1
-    assert _keys_distinct(items, camera, bits), "scene too dense for the stated bound"
+    assert _viewport_order_is_exact(items, camera, bits), "scene too dense for the stated bound"
     rgba, renderer = draw_offscreen(items, camera, [ItemDisplay(key_bits=bits)] * 2)
     assert ref[..., 3].mean() > 0.2, "the scene must cover the frame"
     assert renderer.stats.total == 64 + 120
@@ -179,6 +190,6 @@ def test_orthographic_and_shifted_cameras(gpu_ready, scene):
     for cam in (shifted, ortho):
         ref = reference.render(items, cam, RenderOptions()).rgba
         assert ref[..., 3].mean() > 0.1
-        assert _keys_distinct(items, cam, 16)
+        assert _viewport_order_is_exact(items, cam, 16)
         rgba, _ = draw_offscreen(items, cam)
         assert psnr(rgba, ref) >= PSNR_MIN, cam.ortho

@@ -41,7 +41,8 @@ def configure(parser):
                         help="frame size, even numbers for H.264 (default: 640x360)")
     parser.add_argument("--splats", type=int, default=300_000, metavar="N",
                         help="splats in the knot, or the cap on the capture's (default: 300000); "
-                             "the morph target gets three quarters as many")
+                             "the morph target gets as many (paired by index), or three quarters "
+                             "of a --file capture's (paired by spatial sort)")
     parser.add_argument("--z", action="store_true",
                         help="also render the Z pass into the EXRs (about 10x slower on a CPU)")
 

@@ -161,3 +161,26 @@ def test_show_toggle_is_animatable_and_hides_the_object_from_collect_items(bpy_e
 
     hidden = item_for(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
     assert hidden.opacity_scale == 0.0  # a direct item_for (the viewport's path) draws nothing
+
+
+def test_drivers_on_look_and_effect_parameters(bpy_empty):
+    """A driver is evaluated like a keyframe: the look's opacity follows its expression,
+    and a driven Reveal gives the splats of the same progress set by hand."""
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats())
+    bpy.context.view_layer.objects.active = obj
+    with bpy.context.temp_override(object=obj):
+        bpy.ops.splatline.effect_add(type="REVEAL")
+    for path, expression in (("splatline.effects[0].progress", "frame / 20"),
+                             ("splatline.look.opacity", "0.25 + frame / 40")):
+        curve = obj.driver_add(path)
+        curve.driver.type, curve.driver.expression = "SCRIPTED", expression
+    driven = {frame: items_at(bpy, frame)[0] for frame in (2, 10, 18)}
+    obj.driver_remove("splatline.effects[0].progress")
+    obj.driver_remove("splatline.look.opacity")
+    for frame, item in driven.items():
+        assert item.opacity_scale == pytest.approx(0.25 + frame / 40, abs=1e-6)
+        obj.splatline.effects[0].progress = frame / 20
+        obj.splatline.look.opacity = item.opacity_scale  # the driver's float32 rounding, exactly
+        assert snapshot(items_at(bpy, frame)[0]) == snapshot(item)
+    assert len({snapshot(item) for item in driven.values()}) == 3  # the driver did change them

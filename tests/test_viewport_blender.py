@@ -357,3 +357,6 @@ def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
         before = now
     plain.location = (0.0, 3.0, 0.0)
     assert current()["plain"].splats is before["plain"].splats  # transform only: no re-read
+    version = cache.versions["cap"]
+    obj.splatline.display.splat_scale = 2.0  # viewport-only, on an object with effects
+    assert current()["cap"].splats is before["cap"].splats and cache.versions["cap"] == version

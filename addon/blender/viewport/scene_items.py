@@ -42,22 +42,21 @@ def time_dependent(obj) -> bool:
     return False
 
 
-def effect_inputs(obj) -> set[str]:
-    """Names of the objects whose transform or data the object's effects read.
+def _effects(obj):
+    return getattr(getattr(obj, "splatline", None), "effects", ())
 
-    Its own: effect fields sit at its origin in world-aligned axes, or in a gizmo's
-    frame, so moving the object moves the splats through them. Then every effect's
-    gizmo and morph target. Empty without effects: a move is then transform-only.
-    """
-    effects = getattr(getattr(obj, "splatline", None), "effects", ())
-    if not len(effects):
-        return set()
-    names = {obj.name}
-    for effect in effects:
-        for ref in (effect.gizmo, effect.target):
-            if ref is not None:
-                names.add(ref.name)
-    return names
+
+def effect_inputs(obj) -> set[str]:
+    """Names of the other objects whose transform or data the object's effects read:
+    every effect's gizmo and morph target."""
+    return {ref.name for effect in _effects(obj) for ref in (effect.gizmo, effect.target)
+            if ref is not None}
+
+
+def reads_own_transform(obj) -> bool:
+    """Effect fields sit at the object's origin in world-aligned axes, or in a gizmo's
+    frame: with effects, moving the object moves its splats through them."""
+    return len(_effects(obj)) > 0
 
 
 def settings_signature(obj, skip=("display",)) -> tuple:
@@ -114,11 +113,13 @@ class SceneItems:
         unchanged, moved = set(), set()
         for update in depsgraph.updates:
             ident = update.id
-            if isinstance(ident, bpy.types.Object) and (update.is_updated_transform or update.is_updated_geometry):
-                moved.add(ident.original.name)
-            if not isinstance(ident, bpy.types.Object) or not update.is_updated_geometry:
+            if not isinstance(ident, bpy.types.Object):
                 continue
             name = ident.original.name
+            if update.is_updated_transform or update.is_updated_geometry:
+                moved.add(name)
+            if not update.is_updated_geometry:
+                continue
             if update.is_updated_transform and update.is_updated_shading and name in self.items:
                 signature = settings_signature(ident.original)
                 if self.signatures.get(name) == signature:
@@ -133,7 +134,9 @@ class SceneItems:
             self._invalidate_readers(moved)
 
     def _invalidate_readers(self, moved: set) -> None:
-        """Objects whose effects read a moved or edited object (see effect_inputs)."""
+        """Objects whose effects read another object that moved or changed (gizmo, morph
+        target). Their own moves are caught in collect, by the world matrix: the depsgraph
+        flags of an RNA edit cannot tell a move from a display-option change."""
         for name in list(self.items):
             obj = bpy.data.objects.get(name)
             if obj is not None and not moved.isdisjoint(effect_inputs(obj)):
@@ -171,7 +174,9 @@ class SceneItems:
             version = self.versions.setdefault(name, 0)
             cached = self.items.get(name)
             world = np.array(obj_eval.matrix_world, np.float64)
-            if cached is None or cached[0] != version:
+            moved = cached is not None and reads_own_transform(original) and \
+                not np.array_equal(cached[1].world, world)
+            if cached is None or cached[0] != version or moved:
                 self.signatures[name] = settings_signature(original)
                 # the evaluator's own key: with the arrays' identities it decides what
                 # the renderer re-uploads (an effect that only fades uploads one texture)

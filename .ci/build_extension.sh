@@ -1,20 +1,28 @@
 #!/usr/bin/env bash
-# Build dist/splatline-<version>.zip with Blender's own extension builder (it validates the
-# manifest), after fetching the wheels the manifest names. Usage: .ci/build_extension.sh PYTHON
+# Build one zip per platform, dist/splatline-<version>-<platform>.zip, with Blender's own
+# extension builder, after fetching the wheels the manifest names; then validate each zip with
+# that builder too. Usage: .ci/build_extension.sh [PYTHON] [OUTPUT_DIR]
 set -euo pipefail
 py=$(realpath -s "${1:-.venv/bin/python}")  # -s: keep the venv symlink
 out=$(realpath -m "${2:-dist}")
 cd "$(dirname "$0")/.."
 mkdir -p wheels "$out"
-# The manifest is the single list of bundled wheels: fetch exactly those files.
+# The manifest is the single list of bundled wheels: fetch exactly those files. wheels/ is a
+# cache (gitignored): a wheel already there is not fetched again.
 mapfile -t wheels < <(sed -n 's|^ *"\./wheels/\([^"]*\.whl\)".*|\1|p' blender_manifest.toml)
 for w in "${wheels[@]}"; do
   [ -f "wheels/$w" ] && continue
-  spec=$(echo "$w" | awk -F- '{print $1"=="$2}')
-  "$py" -m pip download --quiet --no-deps --only-binary=:all: --python-version 3.11 \
-    --platform manylinux2014_x86_64 -d wheels "$spec"
+  # name-version-pythontag-abitag-platformtag.whl: ask pip for that one file's tags.
+  IFS=- read -r name version pytag _abi plat <<<"${w%.whl}"
+  args=(--platform "${plat##*.}")  # a compressed tag set (a.b.c): any one of them selects the file
+  [[ $pytag == cp3* ]] && args+=(--python-version "3.${pytag#cp3}")
+  "$py" -m pip download --quiet --no-deps --only-binary=:all: "${args[@]}" -d wheels "$name==$version"
   [ -f "wheels/$w" ] || { echo "error: pip did not produce wheels/$w" >&2; exit 1; }
 done
 ext=$("$py" -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core/bl_pkg/cli/blender_ext.py"))')
-"$py" "$ext" build --source-dir . --output-dir "$out"
-ls -l "$out"/*.zip
+rm -f "$out"/splatline-*.zip  # zips of an older version or platform list would linger
+# --split-platforms: one zip per manifest platform, each with only the wheels for that platform
+# (all Python versions; Blender installs the ones matching its own Python).
+"$py" "$ext" build --split-platforms --source-dir . --output-dir "$out"
+for z in "$out"/splatline-*.zip; do "$py" "$ext" validate "$z"; done
+ls -l "$out"/splatline-*.zip

@@ -12,7 +12,26 @@ import pytest
 from conftest import ROOT
 
 INSTALL_AND_RENDER = r"""
-import sys, bpy
+import importlib.machinery, site, sys
+
+
+class WheelsOnly:
+    # The venv has its own moderngl, glcontext and plyfile: hide those, so that what gets
+    # imported is what the extension's wheels installed for this Python.
+    venv = set(site.getsitepackages())
+
+    @classmethod
+    def find_spec(cls, name, path=None, target=None):
+        if path is None and name in {"moderngl", "_moderngl", "glcontext", "plyfile"}:
+            spec = importlib.machinery.PathFinder.find_spec(
+                name, [p for p in sys.path if p not in cls.venv])
+            if spec is None:
+                raise ModuleNotFoundError(name + ": not installed by the extension", name=name)
+            return spec
+
+
+sys.meta_path.insert(0, WheelsOnly)
+import bpy
 zip_path, capture, out_png = sys.argv[-3:]
 bpy.ops.wm.read_factory_settings(use_empty=True)
 result = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default",
@@ -44,41 +63,83 @@ scene.render.image_settings.file_format = "PNG"
 scene.render.image_settings.color_mode = "RGBA"
 scene.render.filepath = out_png
 bpy.ops.render.render(write_still=True)
+import moderngl
+print("MODERNGL", moderngl.__file__, sys.version_info[:2], bpy.app.version_string)
 print("INSTALLED", [m for m in bpy.context.preferences.addons.keys() if "splatline" in m])
 """
 
 
+PLATFORM_WHEELS = {  # platform suffix of each zip -> platform tag of its wheels, Python tags
+    "linux_x64": ("manylinux2014_x86_64", {"cp311", "cp313"}),
+    "windows_x64": ("win_amd64", {"cp311", "cp313"}),
+    "macos_arm64": ("macosx_11_0_arm64", {"cp311", "cp313"}),
+    "macos_x64": ("macosx_10_9_x86_64", {"cp311"}),  # Blender 4.5 LTS is the last for Intel Macs
+}
+
+
+def _blender_ext(python: str) -> str:
+    out = subprocess.run([python, "-c", "import bpy, os; print(os.path.join(bpy.utils.system_resource("
+                          "'SCRIPTS'), 'addons_core/bl_pkg/cli/blender_ext.py'))"],
+                         capture_output=True, text=True, check=True).stdout
+    return out.strip().splitlines()[-1]
+
+
 @pytest.fixture(scope="module")
-def extension_zip(tmp_path_factory):
+def extension_zips(tmp_path_factory):
     out = tmp_path_factory.mktemp("dist")
-    subprocess.run(["bash", str(ROOT / ".ci" / "build_extension.sh"), sys.executable, str(out)],
-                   cwd=ROOT, check=True, capture_output=True, text=True)
-    (zip_path,) = out.glob("splatline-*.zip")
-    return zip_path
+    proc = subprocess.run(["bash", str(ROOT / ".ci" / "build_extension.sh"), sys.executable, str(out)],
+                          cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return {z.stem.split("-")[-1]: z for z in out.glob("splatline-*.zip")}
 
 
-def test_zip_layout(extension_zip):
-    names = zipfile.ZipFile(extension_zip).namelist()
-    assert "blender_manifest.toml" in names and "__init__.py" in names
-    assert any(n.startswith("addon/core/") for n in names)
-    assert any(n.startswith("shaders/") and n.endswith(".glsl") for n in names)
-    wheels = {n.split("/")[1].split("-")[0] for n in names if n.startswith("wheels/")}
-    assert wheels == {"plyfile", "moderngl", "glcontext"}
-    # Nothing from development gets shipped.
-    assert not any(n.startswith(("tests/", "bench/", ".venv/", ".git/")) for n in names)
+def test_one_zip_per_platform(extension_zips):
+    assert set(extension_zips) == set(PLATFORM_WHEELS)
+    ext = _blender_ext(sys.executable)
+    for platform, zip_path in extension_zips.items():
+        names = zipfile.ZipFile(zip_path).namelist()
+        assert "blender_manifest.toml" in names and "__init__.py" in names
+        assert any(n.startswith("addon/core/") for n in names)
+        assert any(n.startswith("shaders/") and n.endswith(".glsl") for n in names)
+        # Nothing from development gets shipped.
+        assert not any(n.startswith(("tests/", "bench/", ".venv/", ".git/", "wheels/.")) for n in names)
+        # Wheels for this platform only, one per Python the platform's Blenders run.
+        wheels = [n.split("/", 1)[1][:-4].split("-") for n in names if n.startswith("wheels/")]
+        tag, pythons = PLATFORM_WHEELS[platform]
+        assert sorted((w[0], w[2]) for w in wheels if w[0] != "plyfile") == sorted(
+            (name, py) for name in ("glcontext", "moderngl") for py in pythons), platform
+        assert all(tag in w[4].split(".") for w in wheels if w[0] != "plyfile"), platform
+        assert [w[4] for w in wheels if w[0] == "plyfile"] == ["any"], platform
+        # Blender's own builder accepts the built zip as it is.
+        proc = subprocess.run([sys.executable, ext, "validate", str(zip_path)],
+                              capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
-def test_install_enable_import_render(extension_zip, testdata, tmp_path):
+def _venvs():
+    """The Python running pytest, and the venv of the other Blender Python (3.11 <-> 3.13)."""
+    other = ROOT / (".venv-5.2" if sys.version_info[:2] == (3, 11) else ".venv") / "bin" / "python"
+    return [pytest.param(sys.executable, id="this-python"), pytest.param(str(other), id="other-python")]
+
+
+@pytest.mark.parametrize("python", _venvs())
+def test_install_enable_import_render(python, extension_zips, testdata, tmp_path):
+    if not os.path.exists(python):
+        pytest.skip(f"{python} is missing: build it with `make test BLENDER="
+                    f"{'5.2' if '.venv-5.2' in python else '5.0'}` to test that Blender's Python too")
     script = tmp_path / "install.py"
     script.write_text(INSTALL_AND_RENDER)
     out_png = tmp_path / "frame.png"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "user"))
+    env.pop("PYTHONPATH", None)
     # Run from tmp_path so the repo's own `addon` package cannot shadow the installed one.
-    proc = subprocess.run([sys.executable, str(script), str(extension_zip),
+    proc = subprocess.run([python, str(script), str(extension_zips["linux_x64"]),
                            str(testdata / "guitar.spz"), str(out_png)],
                           cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     assert "bl_ext.user_default.splatline" in proc.stdout
+    # moderngl came from the extension's own wheel, the one built for this Blender's Python.
+    assert "/extensions/.local/lib/python" in proc.stdout.split("MODERNGL ", 1)[1].splitlines()[0]
     import OpenImageIO as oiio
 
     pixels = oiio.ImageBuf(str(out_png)).get_pixels(oiio.FLOAT)

@@ -58,7 +58,8 @@ scene.render.engine = "SPLATLINE"
 scene.render.resolution_x, scene.render.resolution_y = 96, 64
 scene.render.resolution_percentage = 100
 scene.render.film_transparent = True
-scene.render.image_settings.media_type = "IMAGE"
+if hasattr(scene.render.image_settings, "media_type"):  # Blender 5.0+: set before file_format
+    scene.render.image_settings.media_type = "IMAGE"
 scene.render.image_settings.file_format = "PNG"
 scene.render.image_settings.color_mode = "RGBA"
 scene.render.filepath = out_png

@@ -19,11 +19,11 @@ from ..splats import AXES, AXES_RDF, SplatSet
 from ..validate import BadValues, check_values
 from ._common import file_size
 
-READ_FORMATS = ("ply", "compressed_ply", "splat", "spz")
+READ_FORMATS = ("ply", "compressed_ply", "splat", "spz", "sog")
 WRITE_FORMATS = ("ply", "splat")
 WRITE_MAX_DEGREE = {"ply": 3, "splat": 0}  # .splat stores no higher SH bands
 WRITE_AXES = {"ply": AXES_RDF, "splat": AXES_RDF}  # the convention each writable format holds
-EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz"}
+EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz", ".sog": "sog"}
 
 
 @dataclass
@@ -45,6 +45,8 @@ def detect_format(path) -> str:
         return "compressed_ply" if b"element chunk " in head[: end if end >= 0 else None] else "ply"
     if head[:2] == b"\x1f\x8b" or head[:4] == b"NGSP":
         return "spz"
+    if head[:4] == b"PK\x03\x04" or os.path.basename(os.fspath(path)).lower() == "meta.json":
+        return "sog"  # the zip or meta.json itself is checked by the reader
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext in (".ply", ".spz"):
         raise SplatFormatError(path, f"does not start like a {ext} file (bad magic bytes)")
@@ -66,6 +68,9 @@ def _reader(fmt: str):
     if fmt == "spz":
         from .spz import read_spz
         return read_spz
+    if fmt == "sog":
+        from .sog import read_sog
+        return read_sog
     raise SplatFormatError(None, f"unknown read format {fmt!r}; known: {', '.join(READ_FORMATS)}")
 
 

@@ -108,6 +108,9 @@ def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", form
 def format_for_output(path) -> str:
     ext = os.path.splitext(os.fspath(path))[1].lower()
     fmt = EXTENSIONS.get(ext)
+    if os.fspath(path).lower().endswith(".compressed.ply"):  # not a float PLY under that name
+        raise SplatFormatError(path, "cannot write compressed PLY yet; name the output .ply for "
+                                     "a float PLY, or pick another writable format")
     if fmt not in WRITE_FORMATS:
         raise SplatFormatError(path, f"cannot write {ext or 'extension-less'} files; "
                                      f"writable: {', '.join(WRITE_FORMATS)}")

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from addon.core.formats import read
+from addon.core.formats import detect_format, read
 from test_cli_formats import cli
 
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
@@ -33,12 +33,13 @@ def test_convert_sog_to_gltf_keeps_every_value(testdata, tmp_path, ext):
         np.testing.assert_array_equal(getattr(back, field), getattr(src, field), err_msg=field)
 
 
-def test_convert_to_compressed_ply_is_refused_not_faked(testdata, tmp_path):
+def test_convert_to_compressed_ply_writes_one(testdata, tmp_path):
     out = tmp_path / "y.compressed.ply"
     r = cli("convert", testdata / "test64.ply", out)
-    assert r.returncode == 1
-    assert "compressed PLY" in r.stderr and str(out) in r.stderr
-    assert not out.exists()
+    assert r.returncode == 0, r.stderr
+    assert "compressed_ply" in r.stdout
+    assert detect_format(out) == "compressed_ply"
+    assert read(out).count == 64
 
 
 def test_bad_sog_is_one_line(tmp_path):

@@ -20,9 +20,9 @@ from ..validate import BadValues, check_values
 from ._common import file_size
 
 READ_FORMATS = ("ply", "compressed_ply", "splat", "spz", "sog", "glb", "gltf")
-WRITE_FORMATS = ("ply", "splat", "glb", "gltf")
-WRITE_MAX_DEGREE = {"ply": 3, "splat": 0, "glb": 3, "gltf": 3}  # .splat stores no higher SH bands
-WRITE_AXES = {"ply": AXES_RDF, "splat": AXES_RDF, "glb": AXES_RDF, "gltf": AXES_RDF}  # the convention each writable format holds
+WRITE_FORMATS = ("ply", "compressed_ply", "splat", "glb", "gltf")
+WRITE_MAX_DEGREE = {"ply": 3, "compressed_ply": 3, "splat": 0, "glb": 3, "gltf": 3}  # .splat stores no higher SH bands
+WRITE_AXES = {"ply": AXES_RDF, "compressed_ply": AXES_RDF, "splat": AXES_RDF, "glb": AXES_RDF, "gltf": AXES_RDF}  # the convention each writable format holds
 EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz", ".sog": "sog", ".glb": "glb", ".gltf": "gltf"}
 
 
@@ -108,9 +108,8 @@ def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", form
 def format_for_output(path) -> str:
     ext = os.path.splitext(os.fspath(path))[1].lower()
     fmt = EXTENSIONS.get(ext)
-    if os.fspath(path).lower().endswith(".compressed.ply"):  # not a float PLY under that name
-        raise SplatFormatError(path, "cannot write compressed PLY yet; name the output .ply for "
-                                     "a float PLY, or pick another writable format")
+    if os.fspath(path).lower().endswith(".compressed.ply"):  # the name promises packed data
+        return "compressed_ply"
     if fmt not in WRITE_FORMATS:
         raise SplatFormatError(path, f"cannot write {ext or 'extension-less'} files; "
                                      f"writable: {', '.join(WRITE_FORMATS)}")
@@ -131,6 +130,9 @@ def write(path, splats: SplatSet, format=None) -> None:
     elif fmt == "splat":
         from .splat import write_splat
         write_splat(path, splats)
+    elif fmt == "compressed_ply":
+        from .compressed_ply_write import write_compressed_ply
+        write_compressed_ply(path, splats)
     elif fmt in ("glb", "gltf"):  # RDF here; the writer turns it into glTF's own frame
         from .gltf_write import write_gltf
         write_gltf(path, splats, binary_container=fmt == "glb")

@@ -42,7 +42,10 @@ def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad=
 
 
 def object_name(path) -> str:
-    return os.path.splitext(os.path.basename(os.fspath(path)))[0] or "Splats"
+    path = os.fspath(path)
+    if os.path.basename(path).lower() == "meta.json":  # an unbundled SOG: name it by its folder
+        path = os.path.dirname(os.path.abspath(path))
+    return os.path.splitext(os.path.basename(path))[0] or "Splats"
 
 
 def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, max_count=0,

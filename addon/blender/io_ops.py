@@ -12,7 +12,8 @@ from .import_splats import export_object, import_file_with_report, object_axes
 from .pointcloud import is_splat_data
 
 _AXES_ENUM = [
-    ("AUTO", "From File", "Y down, z forward for .ply, .splat and .spz (the .spz frame splat-transform writes)"),
+    ("AUTO", "From File", "Y down, z forward for .ply, .splat, .spz and .sog (the .spz frame splat-transform "
+                          "writes); glTF is read into the same frame"),
     ("RDF", "Y Down, Z Forward", "3DGS / COLMAP camera frame"),
     ("RUB", "Y Up, Z Back", "OpenGL-like frame: pick this for a .spz from Niantic's own tools"),
     ("RFU", "Z Up (Blender)", "No rotation"),
@@ -28,10 +29,11 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
     """Import Gaussian splat captures as PointCloud objects"""
 
     bl_idname = "import_scene.splatline_gaussians"
-    bl_label = "Gaussian Splats (.ply, .splat, .spz)"
+    bl_label = "Gaussian Splats (.ply, .splat, .spz, .sog, .glb)"
     bl_options = {"REGISTER", "UNDO", "PRESET"}
 
-    filter_glob: StringProperty(default="*.ply;*.splat;*.spz", options={"HIDDEN"})
+    filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;meta.json;*.glb;*.gltf",
+                                options={"HIDDEN"})
     directory: StringProperty(subtype="DIR_PATH", options={"SKIP_SAVE", "HIDDEN"})
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"SKIP_SAVE", "HIDDEN"})
 
@@ -147,7 +149,12 @@ class IO_FH_splatline_gaussians(bpy.types.FileHandler):
     bl_idname = "IO_FH_splatline_gaussians"
     bl_label = "Gaussian Splats"
     bl_import_operator = "import_scene.splatline_gaussians"
-    bl_file_extensions = ".ply;.splat;.spz"
+    # Not .glb/.gltf: poll_drop sees only the context, never the dropped file, so it cannot
+    # tell a splat glTF from a plain one, and listing the extensions would put Splatline in
+    # front of every glTF drop. Dropped glTF stays Blender's own importer's; splat glTF comes
+    # in through File > Import > Gaussian Splats, which names Blender's importer for a plain
+    # one (formats/gltf.py). Not meta.json either: any .json drop would be offered to us.
+    bl_file_extensions = ".ply;.splat;.spz;.sog"
 
     @classmethod
     def poll_drop(cls, context):
@@ -155,7 +162,7 @@ class IO_FH_splatline_gaussians(bpy.types.FileHandler):
 
 
 def _menu_import(self, context):
-    self.layout.operator(IMPORT_SCENE_OT_splatline_gaussians.bl_idname, text="Gaussian Splats (.ply, .splat, .spz)")
+    self.layout.operator(IMPORT_SCENE_OT_splatline_gaussians.bl_idname, text="Gaussian Splats (.ply, .splat, .spz, .sog, .glb)")
 
 
 def _menu_export(self, context):

@@ -10,7 +10,7 @@ from ..core.validate import POLICIES
 
 
 def configure(parser):
-    parser.add_argument("input", help="a .ply, compressed .ply, .splat or .spz file")
+    parser.add_argument("input", help="a .ply, compressed .ply, .splat, .spz, .sog (or a SOG meta.json), .glb or .gltf file")
     parser.add_argument("output", help=f"output path; its extension picks the format ({', '.join(WRITE_FORMATS)})")
     parser.add_argument("--sh-degree", type=int, choices=range(4), default=None,
                         help="keep SH bands up to this degree")

@@ -10,7 +10,7 @@ from ..core.formats import read_with_report
 
 
 def configure(parser):
-    parser.add_argument("file", help="a .ply, compressed .ply, .splat or .spz file")
+    parser.add_argument("file", help="a .ply, compressed .ply, .splat, .spz, .sog (or a SOG meta.json), .glb or .gltf file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 

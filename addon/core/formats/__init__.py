@@ -19,11 +19,11 @@ from ..splats import AXES, AXES_RDF, SplatSet
 from ..validate import BadValues, check_values
 from ._common import file_size
 
-READ_FORMATS = ("ply", "compressed_ply", "splat", "spz")
-WRITE_FORMATS = ("ply", "splat")
-WRITE_MAX_DEGREE = {"ply": 3, "splat": 0}  # .splat stores no higher SH bands
-WRITE_AXES = {"ply": AXES_RDF, "splat": AXES_RDF}  # the convention each writable format holds
-EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz"}
+READ_FORMATS = ("ply", "compressed_ply", "splat", "spz", "sog", "glb", "gltf")
+WRITE_FORMATS = ("ply", "compressed_ply", "splat", "glb", "gltf")
+WRITE_MAX_DEGREE = {"ply": 3, "compressed_ply": 3, "splat": 0, "glb": 3, "gltf": 3}  # .splat stores no higher SH bands
+WRITE_AXES = {"ply": AXES_RDF, "compressed_ply": AXES_RDF, "splat": AXES_RDF, "glb": AXES_RDF, "gltf": AXES_RDF}  # the convention each writable format holds
+EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz", ".sog": "sog", ".glb": "glb", ".gltf": "gltf"}
 
 
 @dataclass
@@ -45,6 +45,10 @@ def detect_format(path) -> str:
         return "compressed_ply" if b"element chunk " in head[: end if end >= 0 else None] else "ply"
     if head[:2] == b"\x1f\x8b" or head[:4] == b"NGSP":
         return "spz"
+    if head[:4] == b"glTF":
+        return "glb"
+    if head[:4] == b"PK\x03\x04" or os.path.basename(os.fspath(path)).lower() == "meta.json":
+        return "sog"  # the zip or meta.json itself is checked by the reader
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext in (".ply", ".spz"):
         raise SplatFormatError(path, f"does not start like a {ext} file (bad magic bytes)")
@@ -66,6 +70,12 @@ def _reader(fmt: str):
     if fmt == "spz":
         from .spz import read_spz
         return read_spz
+    if fmt == "sog":
+        from .sog import read_sog
+        return read_sog
+    if fmt in ("glb", "gltf"):
+        from .gltf import read_gltf
+        return read_gltf
     raise SplatFormatError(None, f"unknown read format {fmt!r}; known: {', '.join(READ_FORMATS)}")
 
 
@@ -98,6 +108,8 @@ def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", form
 def format_for_output(path) -> str:
     ext = os.path.splitext(os.fspath(path))[1].lower()
     fmt = EXTENSIONS.get(ext)
+    if os.fspath(path).lower().endswith(".compressed.ply"):  # the name promises packed data
+        return "compressed_ply"
     if fmt not in WRITE_FORMATS:
         raise SplatFormatError(path, f"cannot write {ext or 'extension-less'} files; "
                                      f"writable: {', '.join(WRITE_FORMATS)}")
@@ -118,5 +130,11 @@ def write(path, splats: SplatSet, format=None) -> None:
     elif fmt == "splat":
         from .splat import write_splat
         write_splat(path, splats)
+    elif fmt == "compressed_ply":
+        from .compressed_ply_write import write_compressed_ply
+        write_compressed_ply(path, splats)
+    elif fmt in ("glb", "gltf"):  # RDF here; the writer turns it into glTF's own frame
+        from .gltf_write import write_gltf
+        write_gltf(path, splats, binary_container=fmt == "glb")
     else:
         raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(WRITE_FORMATS)}")

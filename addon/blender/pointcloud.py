@@ -16,16 +16,18 @@ from ..core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 
 BASE = "radiance:base"
 _FLOAT4_TYPE = "FLOAT4" if "FLOAT4" in bpy.types.Attribute.bl_rna.properties["data_type"].enum_items else "FLOAT_COLOR"
-_VALUE_KEY = {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color", "QUATERNION": "value", "FLOAT": "value"}
+_VALUE_KEYS: dict[str, str] = {}
 
 
-def _value_key(attribute) -> str:
-    """The foreach key of an attribute's values, asked of RNA for types this table lacks
-    (FLOAT4 in Blender 5.3+, which this Blender cannot test)."""
-    key = _VALUE_KEY.get(attribute.data_type)
+def value_key(attribute) -> str:
+    """The field that holds an attribute's values (foreach key, element attribute), asked of
+    RNA rather than tabulated per Blender version: FLOAT4 values are `vector` in 5.1+ (the
+    element struct is Float4AttributeValue), colours `color`, quaternions and floats `value`."""
+    key = _VALUE_KEYS.get(attribute.data_type)
     if key is None:
         props = attribute.bl_rna.properties["data"].fixed_type.properties
         key = next(k for k in ("value", "vector", "color") if k in props)
+        _VALUE_KEYS[attribute.data_type] = key
     return key
 
 
@@ -59,13 +61,13 @@ def _set(attributes, name, data_type, values: np.ndarray):
     if attribute is None:
         attribute = attributes.new(name, data_type, "POINT")
     flat = _contiguous(values).reshape(-1)
-    attribute.data.foreach_set(_value_key(attribute), flat)
+    attribute.data.foreach_set(value_key(attribute), flat)
 
 
 def _get(attributes, name, width, count) -> np.ndarray:
     attribute = attributes[name]
     out = np.empty(count * width, np.float32)
-    attribute.data.foreach_get(_value_key(attribute), out)
+    attribute.data.foreach_get(value_key(attribute), out)
     return out.reshape(count, width) if width > 1 else out
 
 

@@ -11,9 +11,14 @@ mapfile -t wheels < <(sed -n 's|^ *"\./wheels/\([^"]*\.whl\)".*|\1|p' blender_ma
 for w in "${wheels[@]}"; do
   [ -f "wheels/$w" ] && continue
   spec=$(echo "$w" | awk -F- '{print $1"=="$2}')
-  "$py" -m pip download --quiet --no-deps --only-binary=:all: --python-version 3.11 \
-    --platform manylinux2014_x86_64 -d wheels "$spec"
-  [ -f "wheels/$w" ] || { echo "error: pip did not produce wheels/$w" >&2; exit 1; }
+  # the wheel's own tag picks the Python to fetch for: cp313 -> 3.13, cp311 or py3 -> 3.11
+  pyver=$(echo "$w" | awk -F- '{t=$3; if (t ~ /^cp3[0-9]+$/) print "3." substr(t, 4); else print "3.11"}')
+  # into a private folder, then one rename: parallel builds (pytest -n 2) never see half a file
+  tmp=$(mktemp -d wheels/.fetch.XXXXXX)
+  "$py" -m pip download --quiet --no-deps --only-binary=:all: --python-version "$pyver" \
+    --platform manylinux2014_x86_64 -d "$tmp" "$spec"
+  [ -f "$tmp/$w" ] || { echo "error: pip did not produce $w" >&2; rm -rf "$tmp"; exit 1; }
+  mv -f "$tmp/$w" "wheels/$w" && rm -rf "$tmp"
 done
 ext=$("$py" -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core/bl_pkg/cli/blender_ext.py"))')
 "$py" "$ext" build --source-dir . --output-dir "$out"

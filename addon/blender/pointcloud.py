@@ -8,6 +8,8 @@ once by foreach_set from a contiguous float32 buffer and never zero-filled first
 """
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 import bpy
@@ -15,6 +17,7 @@ import bpy
 from ..core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 
 BASE = "radiance:base"
+log = logging.getLogger("splatline")
 _FLOAT4_TYPE = "FLOAT4" if "FLOAT4" in bpy.types.Attribute.bl_rna.properties["data_type"].enum_items else "FLOAT_COLOR"
 _VALUE_KEYS: dict[str, str] = {}
 
@@ -188,18 +191,46 @@ def _convert_to_pointcloud(helper) -> bpy.types.PointCloud:
 
 
 def sh_count_in(attributes) -> int:
-    """Number of complete-degree radiance:sh_k attributes present (0, 3, 8 or 15)."""
+    """Number of complete-degree radiance:sh_k attributes Splatline reads (0, 3, 8 or 15):
+    a degree-4 PointCloud's sh_15..23 are beyond what it renders (dropped_sh_names)."""
     k = 0
     while sh_name(k) in attributes:
         k += 1
     return _largest_complete(k)
 
 
+def dropped_sh_names(attributes) -> list[str]:
+    """radiance:sh_k attributes Splatline does not render: those past the last complete
+    band up to degree 3, e.g. sh_15..sh_23 of a degree-4 PointCloud from Blender 5.3."""
+    k = sh_count_in(attributes)
+    names = []
+    while sh_name(k) in attributes:
+        names.append(sh_name(k))
+        k += 1
+    return names
+
+
+_WARNED: set[tuple] = set()
+
+
+def _warn_dropped(pointcloud, attributes) -> None:
+    """Log once per PointCloud and attribute set what the read leaves out (it is kept on
+    the PointCloud: Blender's own drawing may use it)."""
+    dropped = dropped_sh_names(attributes)
+    key = (getattr(pointcloud.original, "name_full", ""), tuple(dropped))
+    if dropped and key not in _WARNED:
+        _WARNED.add(key)
+        log.warning("PointCloud %r: %s..%s not rendered (Splatline renders SH up to degree 3)",
+                    key[0], dropped[0], dropped[-1])
+
+
 def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
-    """Read the splat attributes of a (possibly evaluated) PointCloud into a SplatSet."""
+    """Read the splat attributes of a (possibly evaluated) PointCloud into a SplatSet.
+    SH bands Splatline does not render (degree 4) are left out and logged."""
     attributes = pointcloud.attributes
     n = len(pointcloud.points)
     degree = sh_degree_for(sh_count_in(attributes))
+    _warn_dropped(pointcloud, attributes)
     if n == 0:  # an empty PointCloud has no position attribute at all
         return SplatSet.allocate(0, degree, axes)
     base = _get(attributes, BASE, 4, n)

@@ -51,8 +51,9 @@ print("INSTALLED", [m for m in bpy.context.preferences.addons.keys() if "splatli
 @pytest.fixture(scope="module")
 def extension_zip(tmp_path_factory):
     out = tmp_path_factory.mktemp("dist")
-    subprocess.run(["bash", str(ROOT / ".ci" / "build_extension.sh"), sys.executable, str(out)],
-                   cwd=ROOT, check=True, capture_output=True, text=True)
+    proc = subprocess.run(["bash", str(ROOT / ".ci" / "build_extension.sh"), sys.executable,
+                           str(out)], cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     (zip_path,) = out.glob("splatline-*.zip")
     return zip_path
 

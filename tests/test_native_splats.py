@@ -150,3 +150,17 @@ def test_file_handler_is_one_named_choice_beside_blenders_own(bpy_empty):
                                               else None)
     labels = [cls.bl_label for cls in bpy.types.FileHandler.__subclasses__()]
     assert labels.count(handler.bl_label) == 1
+
+
+def test_import_operator_warns_about_a_degree4_file(bpy_empty, tmp_path, capfd):
+    from test_formats_degree4 import _degree4, _write_ply4
+
+    bpy = bpy_empty
+    s, band4 = _degree4(4)
+    _write_ply4(tmp_path / "deg4.ply", s, band4)
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(tmp_path / "deg4.ply")) == {"FINISHED"}
+    obj = bpy.context.active_object
+    assert sorted(a.name for a in obj.data.attributes if a.name.startswith("radiance:sh_")) == \
+        sorted(f"radiance:sh_{k}" for k in range(15))
+    out = capfd.readouterr()
+    assert "SH degree 4 in the file" in out.out + out.err  # Blender prints operator warnings

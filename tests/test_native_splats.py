@@ -39,7 +39,10 @@ def test_native_pointcloud_reads_and_renders_like_a_splatline_import(bpy_empty):
     assert got.sh_degree == 3  # band 4 is not rendered
     for field in ("positions", "scales", "opacities", "sh_dc", "sh_rest"):
         np.testing.assert_array_equal(getattr(got, field), getattr(want, field), err_msg=field)
-    np.testing.assert_allclose(got.rotations, 2.0 * want.rotations, rtol=1e-6)  # as stored
+    raw = np.empty(60 * 4, np.float32)
+    native.data.attributes["rotation"].data.foreach_get("value", raw)
+    np.testing.assert_allclose(raw.reshape(-1, 4), 2.0 * want.rotations, rtol=1e-6)  # as stored
+    np.testing.assert_allclose(got.rotations, want.rotations, rtol=1e-6, atol=1e-7)  # unit
     camera = camera_for((0, 0, 0))
     a = reference.render([items["native"]], camera).rgba
     b = reference.render([items["imported"]], camera).rgba

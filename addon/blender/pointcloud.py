@@ -14,6 +14,7 @@ import numpy as np
 
 import bpy
 
+from ..core.formats._common import normalize_quats_
 from ..core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 
 BASE = "radiance:base"
@@ -241,7 +242,9 @@ def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
     return SplatSet(
         positions=_get(attributes, "position", 3, n),
         scales=_get(attributes, "scale", 3, n),
-        rotations=_get(attributes, "rotation", 4, n),
+        # Blender 5.3's PLY importer stores rot_0..3 as the file has them; SplatSet holds
+        # unit quaternions (effects compose and slerp them). Unit rows are left bit for bit.
+        rotations=normalize_quats_(_get(attributes, "rotation", 4, n)),
         opacities=np.ascontiguousarray(base[:, 3]),
         sh_dc=np.ascontiguousarray(base[:, :3]),
         sh_rest=rest,

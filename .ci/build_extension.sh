@@ -20,6 +20,6 @@ for w in "${wheels[@]}"; do
   [ -f "$tmp/$w" ] || { echo "error: pip did not produce $w" >&2; rm -rf "$tmp"; exit 1; }
   mv -f "$tmp/$w" "wheels/$w" && rm -rf "$tmp"
 done
-ext=$("$py" -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core/bl_pkg/cli/blender_ext.py"))')
+ext=$("$py" -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core/bl_pkg/cli/blender_ext.py"))' | tail -n 1)  # bpy may log to stdout first (OCIO set)
 "$py" "$ext" build --source-dir . --output-dir "$out"
 ls -l "$out"/*.zip

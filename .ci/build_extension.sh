@@ -16,10 +16,14 @@ for w in "${wheels[@]}"; do
   IFS=- read -r name version pytag _abi plat <<<"${w%.whl}"
   args=(--platform "${plat##*.}")  # a compressed tag set (a.b.c): any one of them selects the file
   [[ $pytag == cp3* ]] && args+=(--python-version "3.${pytag#cp3}")
-  "$py" -m pip download --quiet --no-deps --only-binary=:all: "${args[@]}" -d wheels "$name==$version"
-  [ -f "wheels/$w" ] || { echo "error: pip did not produce wheels/$w" >&2; exit 1; }
+  # into a private folder, then one rename: parallel builds (pytest -n 2) never see half a file
+  tmp=$(mktemp -d wheels/.fetch.XXXXXX)
+  "$py" -m pip download --quiet --no-deps --only-binary=:all: "${args[@]}" -d "$tmp" "$name==$version"
+  [ -f "$tmp/$w" ] || { echo "error: pip did not produce $w" >&2; rm -rf "$tmp"; exit 1; }
+  mv -f "$tmp/$w" "wheels/$w" && rm -rf "$tmp"
 done
-ext=$("$py" -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core/bl_pkg/cli/blender_ext.py"))')
+# bpy may log to stdout before the path (e.g. when OCIO is set): keep the last line
+ext=$("$py" -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core/bl_pkg/cli/blender_ext.py"))' | tail -n 1)
 rm -f "$out"/splatline-*.zip  # zips of an older version or platform list would linger
 # --split-platforms: one zip per manifest platform, each with only the wheels for that platform
 # (all Python versions; Blender installs the ones matching its own Python).

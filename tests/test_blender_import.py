@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from addon.core import formats
+from native_scene import value_field
 from addon.core.select import importance
 
 SH_NAMES = [f"radiance:sh_{k}" for k in range(15)]
@@ -15,7 +16,7 @@ SH_NAMES = [f"radiance:sh_{k}" for k in range(15)]
 
 def _attr(pointcloud, name, width):
     a = pointcloud.attributes[name]
-    key = {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color", "QUATERNION": "value", "FLOAT4": "value"}[a.data_type]
+    key = value_field(a)  # FLOAT4 (5.1+) holds `vector`, FLOAT_COLOR (5.0) `color`
     out = np.empty(len(pointcloud.points) * width, np.float32)
     a.data.foreach_get(key, out)
     return out.reshape(-1, width)

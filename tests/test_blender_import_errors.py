@@ -8,6 +8,7 @@ import struct
 import pytest
 
 from addon.core.errors import SplatFormatError
+from native_scene import value_field
 
 _HEADER = ("ply\nformat binary_little_endian 1.0\nelement vertex {n}\n"
            + "".join(f"property float {p}\n" for p in
@@ -137,7 +138,8 @@ def test_nan_and_zero_quaternions_by_policy(bpy_empty, tmp_path):
     obj, report = import_file_with_report(bpy.context, path, bad="fix")
     assert (report.bad.nonfinite, report.bad.zero_quaternions) == (2, 1)
     opacity = np.empty(80, np.float32)
-    obj.data.attributes["radiance:base"].data.foreach_get("color", opacity)
+    base = obj.data.attributes["radiance:base"]
+    base.data.foreach_get(value_field(base), opacity)
     assert len(obj.data.points) == 20 and opacity[3::4][[3, 7]].tolist() == [0.0, 0.0]
     obj, report = import_file_with_report(bpy.context, path, bad="drop")
     assert len(obj.data.points) == 17

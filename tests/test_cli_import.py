@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from conftest import ROOT
+from native_scene import value_field
 
 
 def _cli(*args):
@@ -32,7 +33,8 @@ def test_cli_import_writes_blend(bpy_empty, testdata, tmp_path):
             assert names == want
             assert obj["splatline_axes"] == "RDF"
             base = np.empty(len(obj.data.points) * 4, np.float32)
-            obj.data.attributes["radiance:base"].data.foreach_get("color", base)
+            attribute = obj.data.attributes["radiance:base"]
+            attribute.data.foreach_get(value_field(attribute), base)
             assert base[3::4].min() >= 0.02
         assert len(bpy.data.objects["guitar"].data.points) == 50000
     finally:

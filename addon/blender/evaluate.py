@@ -21,7 +21,7 @@ from ..core import look as core_look
 from ..core.effects import evaluate_stack
 from ..core.scene import RenderItem
 from . import effect_params
-from .pointcloud import BASE, is_splat_data, splats_from_pointcloud
+from .pointcloud import BASE, is_splat_data, splats_from_pointcloud, value_key
 
 try:
     from . import sequence_runtime
@@ -46,9 +46,6 @@ def splat_objects(depsgraph):
             yield obj
 
 
-_VALUE = {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color"}  # FLOAT4, QUATERNION: "value"
-
-
 def _sample(pointcloud, count: int, samples: int = 16) -> tuple:
     """A few values of the centres and colours, spread over the points (~0.15 ms): catches
     data replaced or rewritten without a depsgraph update we could see."""
@@ -59,7 +56,7 @@ def _sample(pointcloud, count: int, samples: int = 16) -> tuple:
     for name in ("position", BASE):
         attribute = pointcloud.attributes.get(name)
         if attribute is not None:
-            field = _VALUE.get(attribute.data_type, "value")
+            field = value_key(attribute)
             data = attribute.data
             out.extend(tuple(getattr(data[int(i)], field)) for i in index)
     return tuple(out)

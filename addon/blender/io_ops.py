@@ -82,6 +82,8 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                     imported.append(obj)
                     if report.bad.total:
                         self.report({"WARNING"}, f"{path}: {report.bad.summary()}")
+                    if report.dropped_sh:
+                        self.report({"WARNING"}, f"{path}: {report.dropped_sh}")
         finally:
             wm.progress_end()
         for message in errors:
@@ -146,8 +148,13 @@ def _is_splat_object(obj) -> bool:
 
 
 class IO_FH_splatline_gaussians(bpy.types.FileHandler):
+    """Drops of .ply/.splat/.spz on the 3D viewport or outliner. Blender's own handlers take
+    .ply (every mesh PLY; splats from 5.3 on) and, in 5.3+, .spz: where several handlers
+    accept a file, Blender asks which one to use, so Splatline stays in that list under a
+    label that names it rather than guessing from the file (poll_drop cannot see the path).
+    Either choice gives a splat object Splatline animates (native.py)."""
     bl_idname = "IO_FH_splatline_gaussians"
-    bl_label = "Gaussian Splats"
+    bl_label = "Gaussian Splats (Splatline)"
     bl_import_operator = "import_scene.splatline_gaussians"
     # Not .glb/.gltf: poll_drop sees only the context, never the dropped file, so it cannot
     # tell a splat glTF from a plain one, and listing the extensions would put Splatline in

@@ -8,24 +8,30 @@ once by foreach_set from a contiguous float32 buffer and never zero-filled first
 """
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 import bpy
 
+from ..core.formats._common import normalize_quats_
 from ..core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 
 BASE = "radiance:base"
+log = logging.getLogger("splatline")
 _FLOAT4_TYPE = "FLOAT4" if "FLOAT4" in bpy.types.Attribute.bl_rna.properties["data_type"].enum_items else "FLOAT_COLOR"
-_VALUE_KEY = {"FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color", "QUATERNION": "value", "FLOAT": "value"}
+_VALUE_KEYS: dict[str, str] = {}
 
 
-def _value_key(attribute) -> str:
-    """The foreach key of an attribute's values, asked of RNA for types this table lacks
-    (FLOAT4 in Blender 5.3+, which this Blender cannot test)."""
-    key = _VALUE_KEY.get(attribute.data_type)
+def value_key(attribute) -> str:
+    """The field that holds an attribute's values (foreach key, element attribute), asked of
+    RNA rather than tabulated per Blender version: FLOAT4 values are `vector` in 5.1+ (the
+    element struct is Float4AttributeValue), colours `color`, quaternions and floats `value`."""
+    key = _VALUE_KEYS.get(attribute.data_type)
     if key is None:
         props = attribute.bl_rna.properties["data"].fixed_type.properties
         key = next(k for k in ("value", "vector", "color") if k in props)
+        _VALUE_KEYS[attribute.data_type] = key
     return key
 
 
@@ -59,13 +65,13 @@ def _set(attributes, name, data_type, values: np.ndarray):
     if attribute is None:
         attribute = attributes.new(name, data_type, "POINT")
     flat = _contiguous(values).reshape(-1)
-    attribute.data.foreach_set(_value_key(attribute), flat)
+    attribute.data.foreach_set(value_key(attribute), flat)
 
 
 def _get(attributes, name, width, count) -> np.ndarray:
     attribute = attributes[name]
     out = np.empty(count * width, np.float32)
-    attribute.data.foreach_get(_value_key(attribute), out)
+    attribute.data.foreach_get(value_key(attribute), out)
     return out.reshape(count, width) if width > 1 else out
 
 
@@ -186,18 +192,46 @@ def _convert_to_pointcloud(helper) -> bpy.types.PointCloud:
 
 
 def sh_count_in(attributes) -> int:
-    """Number of complete-degree radiance:sh_k attributes present (0, 3, 8 or 15)."""
+    """Number of complete-degree radiance:sh_k attributes Splatline reads (0, 3, 8 or 15):
+    a degree-4 PointCloud's sh_15..23 are beyond what it renders (dropped_sh_names)."""
     k = 0
     while sh_name(k) in attributes:
         k += 1
     return _largest_complete(k)
 
 
+def dropped_sh_names(attributes) -> list[str]:
+    """radiance:sh_k attributes Splatline does not render: those past the last complete
+    band up to degree 3, e.g. sh_15..sh_23 of a degree-4 PointCloud from Blender 5.3."""
+    k = sh_count_in(attributes)
+    names = []
+    while sh_name(k) in attributes:
+        names.append(sh_name(k))
+        k += 1
+    return names
+
+
+_WARNED: set[tuple] = set()
+
+
+def _warn_dropped(pointcloud, attributes) -> None:
+    """Log once per PointCloud and attribute set what the read leaves out (it is kept on
+    the PointCloud: Blender's own drawing may use it)."""
+    dropped = dropped_sh_names(attributes)
+    key = (getattr(pointcloud.original, "name_full", ""), tuple(dropped))
+    if dropped and key not in _WARNED:
+        _WARNED.add(key)
+        log.warning("PointCloud %r: %s..%s not rendered (Splatline renders SH up to degree 3)",
+                    key[0], dropped[0], dropped[-1])
+
+
 def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
-    """Read the splat attributes of a (possibly evaluated) PointCloud into a SplatSet."""
+    """Read the splat attributes of a (possibly evaluated) PointCloud into a SplatSet.
+    SH bands Splatline does not render (degree 4) are left out and logged."""
     attributes = pointcloud.attributes
     n = len(pointcloud.points)
     degree = sh_degree_for(sh_count_in(attributes))
+    _warn_dropped(pointcloud, attributes)
     if n == 0:  # an empty PointCloud has no position attribute at all
         return SplatSet.allocate(0, degree, axes)
     base = _get(attributes, BASE, 4, n)
@@ -208,7 +242,9 @@ def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
     return SplatSet(
         positions=_get(attributes, "position", 3, n),
         scales=_get(attributes, "scale", 3, n),
-        rotations=_get(attributes, "rotation", 4, n),
+        # Blender 5.3's PLY importer stores rot_0..3 as the file has them; SplatSet holds
+        # unit quaternions (effects compose and slerp them). Unit rows are left bit for bit.
+        rotations=normalize_quats_(_get(attributes, "rotation", 4, n)),
         opacities=np.ascontiguousarray(base[:, 3]),
         sh_dc=np.ascontiguousarray(base[:, :3]),
         sh_rest=rest,

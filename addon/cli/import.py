@@ -60,6 +60,7 @@ def run(args) -> int:
             raise SplatFormatError(path, exc.strerror or str(exc)) from None
         imported.append(obj)
         extra = f"; {report.bad.summary()}" if report.bad.total else ""
+        extra += f"; {report.dropped_sh}" if report.dropped_sh else ""
         print(f"{path}: {len(obj.data.points)} of {report.count_in_file} splats, "
               f"SH degree {report.sh_degree_in_file} -> {_degree(obj)}{extra}")
     _apply_effect_presets(bpy, args.effect_preset, imported)

@@ -17,6 +17,22 @@ def sh_coeff_count(degree: int) -> int:
     return (degree + 1) ** 2 - 1
 
 
+# Files (SPZ 3+, Blender 5.3's own splats) may carry degree 4 (24 coefficients); Splatline
+# renders up to 3, so readers keep bands 0..3 and report the rest (ReadReport.dropped_sh).
+RENDER_MAX_DEGREE = 3
+FILE_MAX_DEGREE = 4
+
+
+def file_sh_degree(rest_count: int) -> int:
+    """Degree a file's higher-coefficient count stands for, up to FILE_MAX_DEGREE; ValueError
+    otherwise. Unlike sh_degree_for, accepts degrees that SplatSet itself never holds."""
+    for degree in range(FILE_MAX_DEGREE + 1):
+        if sh_coeff_count(degree) == rest_count:
+            return degree
+    raise ValueError(f"{rest_count} higher SH coefficients per channel match no degree "
+                     f"0..{FILE_MAX_DEGREE}")
+
+
 def sh_degree_for(rest_count: int) -> int:
     """Degree whose higher-coefficient count is rest_count; ValueError otherwise."""
     for degree in range(4):
@@ -36,6 +52,7 @@ class SplatSet:
     sh_dc      (N, 3) float32   SH DC coefficients (not colours)
     sh_rest    (N, K, 3) float32 higher SH coefficients, K = (deg+1)^2 - 1, coefficient-major
     axes       source axis convention, one of AXES
+    sh_degree_in_file  see below
     """
 
     positions: np.ndarray
@@ -45,6 +62,9 @@ class SplatSet:
     sh_dc: np.ndarray
     sh_rest: np.ndarray
     axes: str = AXES_RDF
+    # the SH degree the source held, where a reader kept fewer bands (a degree-4 file read
+    # as degree 3); None when it kept them all. Only read_with_report reads it.
+    sh_degree_in_file: int | None = None
 
     @property
     def count(self) -> int:

@@ -14,7 +14,7 @@ import numpy as np
 
 import bpy
 
-from .. import evaluate
+from .. import evaluate, native
 from .renderer import ItemDisplay
 
 
@@ -160,6 +160,8 @@ class SceneItems:
         view_layer, space = context.view_layer, context.space_data
         for obj_eval in depsgraph.objects:
             if obj_eval.type != "POINTCLOUD" or not evaluate.is_splat_object(obj_eval):
+                continue
+            if native.drawn_natively(obj_eval.data):  # Blender 5.3+ draws it: never twice
                 continue
             original = obj_eval.original
             if original.visible_get(view_layer=view_layer, viewport=space):

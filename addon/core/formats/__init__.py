@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from ..errors import SplatFormatError
 from ..select import select
 from ..reframe import reframe
-from ..splats import AXES, AXES_RDF, SplatSet
+from ..splats import AXES, AXES_RDF, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
 from ..validate import BadValues, check_values
 from ._common import file_size
 
@@ -33,6 +33,16 @@ class ReadReport:
     count_in_file: int = 0
     sh_degree_in_file: int = 0
     bad: BadValues = field(default_factory=BadValues)
+
+    @property
+    def dropped_sh(self) -> str:
+        """What the read left out because Splatline renders SH up to degree 3 ('' if nothing):
+        a degree-4 file (SPZ 3+, Blender 5.3) loses band 4, 9 coefficients per channel."""
+        if self.sh_degree_in_file <= RENDER_MAX_DEGREE:
+            return ""
+        first, end = sh_coeff_count(RENDER_MAX_DEGREE), sh_coeff_count(self.sh_degree_in_file)
+        return (f"SH degree {self.sh_degree_in_file} in the file; Splatline keeps degree "
+                f"{RENDER_MAX_DEGREE} and dropped coefficients {first}..{end - 1} per channel")
 
 
 def detect_format(path) -> str:
@@ -94,7 +104,8 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
         raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
         splats.axes = axes
-    report = ReadReport(os.fspath(path), fmt, splats.count, splats.sh_degree)
+    in_file = splats.sh_degree if splats.sh_degree_in_file is None else splats.sh_degree_in_file
+    report = ReadReport(os.fspath(path), fmt, splats.count, in_file)
     splats, report.bad = check_values(splats, bad, path)
     splats = select(splats, sh_degree, min_opacity, max_count)
     return splats.check(), report

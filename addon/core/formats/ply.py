@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SplatFormatError
-from ..splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
+from ..splats import AXES_RDF, RENDER_MAX_DEGREE, FILE_MAX_DEGREE, SplatSet, file_sh_degree, sh_coeff_count
 from ._common import logit, normalize_quats_, sigmoid_, write_file
 from .plyheader import parse_header, read_body
 
@@ -113,9 +113,10 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
     if rest_count % 3:
         raise SplatFormatError(path, f"{rest_count} f_rest properties is not a multiple of 3")
     try:
-        degree = sh_degree_for(rest_count // 3)
+        degree = file_sh_degree(rest_count // 3)
     except ValueError:
-        raise SplatFormatError(path, f"{rest_count} f_rest properties match no SH degree 0..3") from None
+        raise SplatFormatError(path, f"{rest_count} f_rest properties match no SH degree "
+                                     f"0..{FILE_MAX_DEGREE}") from None
     missing = [p for p in rest_names(rest_count) if p not in present]
     if missing:
         raise SplatFormatError(path, f"f_rest properties are not numbered 0..{rest_count - 1}: lacks {missing[0]}")
@@ -125,7 +126,7 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
     f32, f64 = np.float32, np.float64
     (positions, scales, opacities, rotations, sh_dc), sh_rest = gather(
         rec, [(POS, f32), (SCALE, f64), (("opacity",), f64), (ROT, f32), (DC, f32)],
-        k, sh_coeff_count(min(degree, max_degree)))
+        k, sh_coeff_count(min(degree, max_degree, RENDER_MAX_DEGREE)))
     return SplatSet(
         positions=positions,
         scales=np.exp(scales).astype(np.float32),
@@ -134,6 +135,7 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
         sh_dc=sh_dc,
         sh_rest=sh_rest,
         axes=AXES_RDF,
+        sh_degree_in_file=degree,
     )
 
 

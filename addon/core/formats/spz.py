@@ -39,7 +39,7 @@ import zlib
 import numpy as np
 
 from ..errors import SplatFormatError
-from ..splats import AXES_RDF, SplatSet, sh_coeff_count
+from ..splats import AXES_RDF, FILE_MAX_DEGREE, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
 from ._common import normalize_quats_, read_bytes
 
 MAGIC = b"NGSP"
@@ -64,8 +64,8 @@ def _parse_header(path, head: bytes, versions) -> tuple:
     if version not in versions:
         raise SplatFormatError(path, f"unsupported spz version {version} here (supported: "
                                      f"{', '.join(map(str, versions))})")
-    if degree > 3:
-        raise SplatFormatError(path, f"spz SH degree {degree} is not supported (0..3)")
+    if degree > FILE_MAX_DEGREE:  # SPZ 3+ and Blender 5.3 go to degree 4; bands > 3 are dropped
+        raise SplatFormatError(path, f"spz SH degree {degree} is not supported (0..{FILE_MAX_DEGREE})")
     if frac > 24:
         raise SplatFormatError(path, f"spz fractional bits {frac} out of range")
     return version, n, degree, frac, flags
@@ -175,7 +175,8 @@ def _decode(head, blocks, max_degree: int) -> SplatSet:
     s.scales = np.exp(scale.reshape(n, 3).astype(np.float64) / 16.0 - 10.0).astype(np.float32)
     s.rotations = _rotations(version, rot, n)
     k = sh_coeff_count(degree)
-    keep = sh_coeff_count(min(degree, max_degree))
+    keep = sh_coeff_count(min(degree, max_degree, RENDER_MAX_DEGREE))
+    s.sh_degree_in_file = degree
     rest = sh.reshape(n, k, 3)[:, :keep]
     s.sh_rest = (rest.astype(np.float32) - np.float32(128.0)) / np.float32(128.0)
     return s

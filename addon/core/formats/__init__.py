@@ -112,6 +112,7 @@ def write(path, splats: SplatSet, format=None) -> None:
         splats = reframe(splats, WRITE_AXES[fmt])
     if os.path.isdir(path):
         raise SplatFormatError(path, "is a directory")
+    _refuse_negative_scales(path, splats)
     if fmt == "ply":
         from .ply import write_ply
         write_ply(path, splats)
@@ -120,3 +121,12 @@ def write(path, splats: SplatSet, format=None) -> None:
         write_splat(path, splats)
     else:
         raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(WRITE_FORMATS)}")
+
+
+def _refuse_negative_scales(path, splats: SplatSet) -> None:
+    """A negative or NaN scale has no log (the PLY encoding) and is not a size: refuse it
+    rather than write NaN. Zero passes (log 0 = -inf reads back as 0)."""
+    bad = int((~(splats.scales >= 0)).any(axis=1).sum())
+    if bad:
+        raise SplatFormatError(path, f"{bad} splats have negative or NaN scales; read the source "
+                                     f"with bad='fix' or 'drop' first")

@@ -6,6 +6,7 @@ import os
 import numpy as np
 
 from ..errors import SplatFormatError
+from ..quaternion import normalize_quats_  # noqa: F401  (the readers import it from here)
 
 
 def file_size(path) -> int:
@@ -55,21 +56,6 @@ def sigmoid_(x: np.ndarray) -> np.ndarray:
     x += 1.0
     np.reciprocal(x, out=x)
     return x
-
-
-def normalize_quats_(q: np.ndarray) -> np.ndarray:
-    """Normalize (N, 4) quaternions in place; zero rows stay zero (validate.py reports them).
-
-    Rows already unit length to float32 precision are left alone, so normalizing is
-    idempotent and a write/read round trip returns the quaternions bit for bit.
-    """
-    norm2 = np.einsum("ij,ij->i", q, q)
-    off = np.abs(norm2 - 1.0) > 4.8e-7  # 4 ulp of 1.0: float32 rounding of a unit quaternion
-    off &= norm2 > 0
-    if off.any():
-        idx = np.flatnonzero(off)
-        q[idx] /= np.sqrt(norm2[idx])[:, None]
-    return q
 
 
 def logit(p: np.ndarray) -> np.ndarray:

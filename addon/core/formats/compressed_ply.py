@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
+from ._common import normalize_quats_
 from .ply import columns, sh_rest_from
 from .plyheader import parse_header, read_body
 
@@ -58,7 +59,8 @@ def _unpack_rotation(packed: np.ndarray) -> np.ndarray:
         src = np.clip(j - (j > which), 0, 2)
         stored = np.take_along_axis(three, src[:, None], axis=1)[:, 0]
         wxyz[:, j] = np.where(which == j, largest, stored)
-    return wxyz
+    # stored components can square-sum past 1 (0xFFFFFFFF gives |q| = 1.22): renormalise
+    return normalize_quats_(wxyz)
 
 
 def _require(path, rec: np.ndarray, names, element: str) -> None:

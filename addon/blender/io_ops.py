@@ -82,11 +82,16 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                         self.report({"WARNING"}, f"{path}: {report.bad.summary()}")
         finally:
             wm.progress_end()
+        # As Blender's own importers do: with something imported, a failed file is a warning
+        # and the operator finishes (an ERROR report would make bpy.ops raise after the good
+        # files were already in the scene); with nothing imported it is an error.
+        level = {"WARNING"} if imported else {"ERROR"}
         for message in errors:
-            self.report({"ERROR"}, message)
+            self.report(level, message)
         if not imported:
             return {"CANCELLED"}
-        self.report({"INFO"}, f"imported {len(imported)} splat object(s)")
+        failed = f", {len(errors)} file(s) failed" if errors else ""
+        self.report({"INFO"}, f"imported {len(imported)} splat object(s){failed}")
         return {"FINISHED"}
 
     def draw(self, context):

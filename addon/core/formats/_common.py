@@ -85,6 +85,50 @@ def _write_atomic(target: str, parts) -> None:
         raise
 
 
+# What decoding costs per splat at its peak, measured with tracemalloc on testdata/guitar.*
+# (degree 0: 110 B/splat for .ply, up to 245 for .spz), plus the higher SH: 4 bytes per
+# float32 kept and about as much again in decode temporaries. Used for the default budget.
+BASE_BYTES_PER_SPLAT = 256
+SH_BYTES_PER_COEFFICIENT = 8
+
+
+def available_memory() -> int | None:
+    """Bytes the system could give this process now: MemAvailable on Linux, free physical
+    pages on other POSIX systems; None where neither is known (then no default budget)."""
+    try:
+        with open("/proc/meminfo", "rb") as f:
+            for line in f:
+                if line.startswith(b"MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def check_budget(path, count: int, rest_floats: int, max_splats=None) -> None:
+    """Refuse a file claiming more splats than the budget, before anything is decompressed
+    or allocated from the claim: a 12 KB .spz can legally expand to 20M splats (4 GB).
+    max_splats None: the budget is what fits in available memory; rest_floats is the
+    number of higher-SH floats per splat (3 * coefficients)."""
+    if max_splats is not None:
+        if count > max_splats:
+            raise SplatFormatError(path, f"holds {count} splats, more than the splat budget of "
+                                         f"{max_splats} (max_splats / --max-splats)")
+        return
+    avail = available_memory()
+    if avail is None:
+        return
+    per_splat = BASE_BYTES_PER_SPLAT + SH_BYTES_PER_COEFFICIENT * rest_floats
+    if count > avail // per_splat:
+        raise SplatFormatError(
+            path, f"holds {count} splats, more than the default splat budget of {avail // per_splat}: "
+                  f"what fits in the {avail / 2**30:.1f} GiB of available memory at about {per_splat} "
+                  f"bytes per splat; raise it with max_splats / --max-splats")
+
+
 def sigmoid_(x: np.ndarray) -> np.ndarray:
     """In-place logistic function."""
     np.negative(x, out=x)

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
-from ._common import normalize_quats_
+from ._common import check_budget, normalize_quats_
 from .ply import columns, sh_rest_from
 from .plyheader import parse_header, read_body
 
@@ -69,8 +69,10 @@ def _require(path, rec: np.ndarray, names, element: str) -> None:
         raise SplatFormatError(path, f"compressed PLY {element} element lacks: {', '.join(missing)}")
 
 
-def read_compressed_ply(path, max_degree: int = 3) -> SplatSet:
+def read_compressed_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     header = parse_header(path)
+    vertex, sh = header.element("vertex"), header.element("sh")
+    check_budget(path, vertex.count if vertex else 0, len(sh.props) if sh else 0, max_splats)
     body = read_body(path, header)
     if "chunk" not in body or "vertex" not in body:
         raise SplatFormatError(path, "compressed PLY needs a chunk and a vertex element")

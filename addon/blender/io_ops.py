@@ -18,9 +18,9 @@ _AXES_ENUM = [
     ("RFU", "Z Up (Blender)", "No rotation"),
 ]
 _BAD_ENUM = [
-    ("fix", "Neutralise", "Splats with NaN/Inf values become invisible; zero quaternions become identity"),
-    ("drop", "Drop", "Remove splats with NaN/Inf values or zero quaternions"),
-    ("error", "Refuse File", "Refuse a file holding any NaN/Inf value or zero quaternion"),
+    ("fix", "Neutralise", "Splats with NaN/Inf values become invisible; zero quaternions become identity; scales <= 0 become |scale|"),
+    ("drop", "Drop", "Remove splats with NaN/Inf values, zero quaternions or scales <= 0"),
+    ("error", "Refuse File", "Refuse a file holding any NaN/Inf value, zero quaternion or scale <= 0"),
 ]
 
 

@@ -25,8 +25,8 @@ def configure(parser):
                         help="splat budget: refuse a file claiming more than N splats before "
                              "decompressing it (default: what fits in available memory)")
     parser.add_argument("--bad", choices=POLICIES, default="drop",
-                        help="splats with NaN/Inf or zero quaternions: drop (default), fix "
-                             "(neutralise: invisible / identity rotation) or error")
+                        help="splats with NaN/Inf, zero quaternions or scales <= 0: drop (default), "
+                             "fix (neutralise: invisible / identity rotation / |scale|) or error")
 
 
 def _refuse_empty(args, count_in_file: int, count_kept: int) -> None:

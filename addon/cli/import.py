@@ -27,7 +27,7 @@ def configure(parser):
                         help="splat budget: refuse a file claiming more than N splats before "
                              "decompressing it (default: what fits in available memory)")
     parser.add_argument("--bad-values", default="fix", choices=("fix", "drop", "error"),
-                        help="NaN/Inf splats and zero quaternions: neutralise, drop or refuse")
+                        help="NaN/Inf splats, zero quaternions and scales <= 0: neutralise, drop or refuse")
     parser.add_argument("--effect-preset", action="append", default=[], metavar="NAME",
                         help="apply an effect preset (presets/effects/) to every imported object, "
                              "keyed from the scene's start frame (repeatable); 'morph' needs two "

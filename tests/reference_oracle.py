@@ -10,9 +10,39 @@ from fractions import Fraction
 
 import numpy as np
 
-from addon.core.sh import sh_to_rgb
-
 LD = np.longdouble
+
+# INRIA diff-gaussian-rasterization forward.cu, written out here and not imported from
+# addon.core.sh, so the oracle checks the renderer's SH instead of sharing its code
+# (tests/test_sh_oracle.py checks these against the closed forms sqrt((2l+1)/4pi ...)).
+SH_C0 = 0.28209479177387814
+SH_C1 = 0.4886025119029199
+SH_C2 = (1.0925484305920792, -1.0925484305920792, 0.31539156525252005, -1.0925484305920792,
+         0.5462742152960396)
+SH_C3 = (-0.5900435899266435, 2.890611442640554, -0.4570457994644658, 0.3731763325901154,
+         -0.4570457994644658, 1.445305721320277, -0.5900435899266435)
+
+
+def sh_rgb(dc, rest, d, degree):
+    """INRIA's computeColorFromSH for one splat: dc (3,), rest (K, 3), unit direction d,
+    before the clamp at 0. Term by term as in forward.cu, in long double."""
+    sh = [np.asarray(dc, LD)] + [np.asarray(r, LD) for r in rest]
+    x, y, z = (LD(v) for v in d)
+    result = SH_C0 * sh[0]
+    if degree > 0:
+        result = result - SH_C1 * y * sh[1] + SH_C1 * z * sh[2] - SH_C1 * x * sh[3]
+    if degree > 1:
+        xx, yy, zz, xy, yz, xz = x * x, y * y, z * z, x * y, y * z, x * z
+        result = (result + SH_C2[0] * xy * sh[4] + SH_C2[1] * yz * sh[5]
+                  + SH_C2[2] * (2.0 * zz - xx - yy) * sh[6] + SH_C2[3] * xz * sh[7]
+                  + SH_C2[4] * (xx - yy) * sh[8])
+        if degree > 2:
+            result = (result + SH_C3[0] * y * (3.0 * xx - yy) * sh[9] + SH_C3[1] * xy * z * sh[10]
+                      + SH_C3[2] * y * (4.0 * zz - xx - yy) * sh[11]
+                      + SH_C3[3] * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * sh[12]
+                      + SH_C3[4] * x * (4.0 * zz - xx - yy) * sh[13]
+                      + SH_C3[5] * z * (xx - yy) * sh[14] + SH_C3[6] * x * (xx - 3.0 * yy) * sh[15])
+    return result + 0.5
 
 
 def quat_matrix(q):
@@ -79,8 +109,7 @@ def splat_rgb(cam, item, i):
         d = p - (inv[:3, :3] @ cam.position + inv[:3, 3])
     d = d / np.linalg.norm(d)
     deg = item.effective_sh_degree
-    rgb = sh_to_rgb(sp.sh_dc[i:i + 1].astype(np.float64), sp.sh_rest[i:i + 1].astype(np.float64),
-                    d[None], deg)[0]
+    rgb = sh_rgb(sp.sh_dc[i].astype(np.float64), sp.sh_rest[i].astype(np.float64), d, deg).astype(np.float64)
     cm = np.asarray(item.color_matrix, np.float64)
     return np.maximum(cm[:, :3] @ rgb + cm[:, 3], 0.0)
 

@@ -87,15 +87,28 @@ def test_bad_file_leaves_nothing(bpy_empty, testdata, tmp_path, make):
     assert _counts(bpy) == before
 
 
-def test_good_and_bad_files_together(bpy_empty, testdata, tmp_path):
+def test_good_and_bad_files_together(bpy_empty, testdata, tmp_path, capfd):
+    """Three files, the 2nd corrupt: the 1st and 3rd come in, the operator finishes (as
+    Blender's own importers do), the bad one is a warning naming it, and nothing of it is
+    left half-made. A script tells what failed from the report (printed by bpy)."""
     bpy = bpy_empty
-    bad, _ = _huge_header(tmp_path, testdata)
-    (tmp_path / "test64.ply").write_bytes((testdata / "test64.ply").read_bytes())
-    with pytest.raises(RuntimeError, match="huge.ply: truncated"):
-        bpy.ops.import_scene.splatline_gaussians(directory=str(tmp_path),
-                                                 files=[{"name": "huge.ply"}, {"name": "test64.ply"}])
-    assert _counts(bpy) == (1, 1, 0)
-    assert bpy.data.objects[0].name == "test64"
+    bad, _ = _truncated(tmp_path, testdata)  # tmp_path/truncated.ply
+    for name in ("a.ply", "c.spz"):
+        src = "test64.ply" if name.endswith(".ply") else "test64.spz"
+        (tmp_path / name).write_bytes((testdata / src).read_bytes())
+    capfd.readouterr()
+    result = bpy.ops.import_scene.splatline_gaussians(
+        directory=str(tmp_path), files=[{"name": "a.ply"}, {"name": bad.name}, {"name": "c.spz"}])
+    assert result == {"FINISHED"}
+    assert _counts(bpy) == (2, 2, 0)
+    assert sorted(o.name for o in bpy.data.objects) == ["a", "c"]
+    assert sorted(p.name for p in bpy.data.pointclouds) == ["a", "c"]
+    out = capfd.readouterr()
+    report = out.out + out.err
+    assert f"{bad}: truncated" in report and "1 file(s) failed" in report, report
+    with pytest.raises(RuntimeError, match="truncated.ply: truncated"):  # all bad: still an error
+        bpy.ops.import_scene.splatline_gaussians(directory=str(tmp_path), files=[{"name": bad.name}])
+    assert _counts(bpy) == (2, 2, 0)
 
 
 def test_nothing_left_when_options_select_nothing(bpy_empty, testdata):

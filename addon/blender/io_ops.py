@@ -19,9 +19,9 @@ _AXES_ENUM = [
     ("RFU", "Z Up (Blender)", "No rotation"),
 ]
 _BAD_ENUM = [
-    ("fix", "Neutralise", "Splats with NaN/Inf values become invisible; zero quaternions become identity"),
-    ("drop", "Drop", "Remove splats with NaN/Inf values or zero quaternions"),
-    ("error", "Refuse File", "Refuse a file holding any NaN/Inf value or zero quaternion"),
+    ("fix", "Neutralise", "Splats with NaN/Inf values become invisible; zero quaternions become identity; scales <= 0 become |scale|"),
+    ("drop", "Drop", "Remove splats with NaN/Inf values, zero quaternions or scales <= 0"),
+    ("error", "Refuse File", "Refuse a file holding any NaN/Inf value, zero quaternion or scale <= 0"),
 ]
 
 
@@ -86,11 +86,16 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                         self.report({"WARNING"}, f"{path}: {report.dropped_sh}")
         finally:
             wm.progress_end()
+        # As Blender's own importers do: with something imported, a failed file is a warning
+        # and the operator finishes (an ERROR report would make bpy.ops raise after the good
+        # files were already in the scene); with nothing imported it is an error.
+        level = {"WARNING"} if imported else {"ERROR"}
         for message in errors:
-            self.report({"ERROR"}, message)
+            self.report(level, message)
         if not imported:
             return {"CANCELLED"}
-        self.report({"INFO"}, f"imported {len(imported)} splat object(s)")
+        failed = f", {len(errors)} file(s) failed" if errors else ""
+        self.report({"INFO"}, f"imported {len(imported)} splat object(s){failed}")
         return {"FINISHED"}
 
     def draw(self, context):

@@ -21,9 +21,12 @@ def configure(parser):
     parser.add_argument("--axes", choices=AXES, default=None,
                         help="the input's axis convention when the file misdeclares it (e.g. RUB "
                              "for an spz from Niantic's tools); the output is re-expressed in its own")
+    parser.add_argument("--max-splats", type=int, default=None, metavar="N",
+                        help="splat budget: refuse a file claiming more than N splats before "
+                             "decompressing it (default: what fits in available memory)")
     parser.add_argument("--bad", choices=POLICIES, default="drop",
-                        help="splats with NaN/Inf or zero quaternions: drop (default), fix "
-                             "(neutralise: invisible / identity rotation) or error")
+                        help="splats with NaN/Inf, zero quaternions or scales <= 0: drop (default), "
+                             "fix (neutralise: invisible / identity rotation / |scale|) or error")
 
 
 def _refuse_empty(args, count_in_file: int, count_kept: int) -> None:
@@ -40,7 +43,7 @@ def run(args) -> int:
     fmt = format_for_output(args.output)  # fail on a bad output name before reading
     splats, report = read_with_report(args.input, sh_degree=args.sh_degree,
                                       min_opacity=args.min_opacity, max_count=args.max_count,
-                                      bad=args.bad, axes=args.axes)
+                                      bad=args.bad, axes=args.axes, max_splats=args.max_splats)
     _refuse_empty(args, report.count_in_file, splats.count)
     if report.bad.total:
         print(f"warning: {args.input}: {report.bad.summary()}", file=sys.stderr)

@@ -23,8 +23,11 @@ def configure(parser):
                         help="keep the N most important splats per file (0: all)")
     parser.add_argument("--axes", default="AUTO", choices=("AUTO",) + AXES,
                         help="axis convention override (default: the file's)")
+    parser.add_argument("--max-splats", type=int, default=None, metavar="N",
+                        help="splat budget: refuse a file claiming more than N splats before "
+                             "decompressing it (default: what fits in available memory)")
     parser.add_argument("--bad-values", default="fix", choices=("fix", "drop", "error"),
-                        help="NaN/Inf splats and zero quaternions: neutralise, drop or refuse")
+                        help="NaN/Inf splats, zero quaternions and scales <= 0: neutralise, drop or refuse")
     parser.add_argument("--effect-preset", action="append", default=[], metavar="NAME",
                         help="apply an effect preset (presets/effects/) to every imported object, "
                              "keyed from the scene's start frame (repeatable); 'morph' needs two "
@@ -55,7 +58,7 @@ def run(args) -> int:
         try:
             obj, report = import_file_with_report(
                 bpy.context, path, max_sh_degree=args.max_sh_degree, min_opacity=args.min_opacity,
-                max_count=args.max_count, axes=args.axes, bad=args.bad_values)
+                max_count=args.max_count, axes=args.axes, bad=args.bad_values, max_splats=args.max_splats)
         except OSError as exc:  # e.g. permission denied: still one line naming the file
             raise SplatFormatError(path, exc.strerror or str(exc)) from None
         imported.append(obj)

@@ -12,11 +12,14 @@ from ..core.formats import read_with_report
 def configure(parser):
     parser.add_argument("file", help="a .ply, compressed .ply, .splat, .spz, .sog (or a SOG meta.json), .glb or .gltf file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--max-splats", type=int, default=None, metavar="N",
+                        help="splat budget: refuse a file claiming more than N splats before "
+                             "decompressing it (default: what fits in available memory)")
 
 
-def summarize(path) -> dict:
+def summarize(path, max_splats=None) -> dict:
     """What `info` prints, as a dict (bad values are counted, not dropped)."""
-    splats, report = read_with_report(path, bad="fix")
+    splats, report = read_with_report(path, bad="fix", max_splats=max_splats)
     finite = np.isfinite(splats.positions).all(axis=1) if splats.count else np.zeros(0, bool)
     pos = splats.positions[finite]
     bbox_min = pos.min(axis=0).tolist() if len(pos) else None
@@ -35,7 +38,7 @@ def _fmt_vec(v) -> str:
 
 
 def run(args) -> int:
-    info = summarize(args.file)
+    info = summarize(args.file, args.max_splats)
     if args.json:
         print(json.dumps(info))
         return 0
@@ -45,6 +48,7 @@ def run(args) -> int:
         ("SH degree", info["sh_degree"]), ("axes", info["axes"]),
         ("bbox min", _fmt_vec(info["bbox_min"])), ("bbox max", _fmt_vec(info["bbox_max"])),
         ("NaN/Inf splats", bad["nonfinite"]), ("zero quaternions", bad["zero_quaternions"]),
+        ("non-positive scales", bad["nonpositive_scales"]),
     ]
     width = max(len(k) for k, _ in rows)
     for key, value in rows:

@@ -60,3 +60,24 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     half = 0.5 * np.asarray(angle)
     s = np.sin(half)[..., None]
     return np.concatenate([np.cos(half)[..., None], np.asarray(axis) * s], axis=-1)
+
+
+def normalize_quats_(q: np.ndarray) -> np.ndarray:
+    """Normalize (N, 4) float32 quaternions in place; zero rows stay zero and rows holding a
+    NaN/Inf are left as they are (validate.py reports both).
+
+    Rows already unit length to float32 precision are left alone, so normalizing is
+    idempotent and a write/read round trip returns the quaternions bit for bit. The others
+    are normalised in float64: float32's squared norm underflows to 0 for |q| < 1e-19 and
+    overflows to inf for |q| > 1.8e19, which left tiny ones unnormalised and turned huge
+    ones into zeros; float64 holds the square of any float32.
+    """
+    norm2 = np.einsum("ij,ij->i", q, q)
+    off = np.abs(norm2 - 1.0) > 4.8e-7  # 4 ulp of 1.0: float32 rounding of a unit quaternion
+    if off.any():
+        idx = np.flatnonzero(off)
+        rows = q[idx].astype(np.float64)
+        norm = np.sqrt(np.einsum("ij,ij->i", rows, rows))
+        ok = np.isfinite(norm) & (norm > 0)
+        q[idx[ok]] = rows[ok] / norm[ok, None]
+    return q

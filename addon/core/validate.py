@@ -1,4 +1,6 @@
-"""Count and handle NaN/Inf values and all-zero quaternions in a decoded SplatSet.
+"""Count and handle bad values in a decoded SplatSet: NaN/Inf values, all-zero quaternions
+and scales that are not positive (a .splat stores linear scales, which can be negative or
+zero; a PLY log scale below -103 underflows to 0).
 
 Garbage must never reach a renderer silently. Each reader's output goes through
 `check_values`, which counts the bad splats and then, by policy:
@@ -6,9 +8,13 @@ Garbage must never reach a renderer silently. Each reader's output goes through
           zeros there and opacity 0 (invisible, but the count and index order stay,
           which sequences and morphs rely on); a zero quaternion becomes the
           identity, which is how INRIA's normalize-then-build-matrix path draws it;
+          a scale s <= 0 becomes max(|s|, TINY_SCALE): Sigma = R S S^T R^T depends on
+          s^2 only, so |s| draws exactly as INRIA draws s, and TINY_SCALE keeps a zero
+          scale's point-like footprint while its log (the PLY encoding) stays finite;
   "drop"  remove them;
   "error" raise SplatFormatError naming the counts.
-Note: an infinite opacity logit is not "bad": the sigmoid maps it to 0 or 1.
+After "fix" or "drop" every value is finite, every quaternion unit length and every scale
+positive. Note: an infinite opacity logit is not "bad": the sigmoid maps it to 0 or 1.
 """
 from __future__ import annotations
 
@@ -17,10 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import SplatFormatError
+from .quaternion import normalize_quats_
 from .splats import SplatSet
 
 POLICIES = ("fix", "drop", "error")
 _FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
+TINY_SCALE = float(np.finfo(np.float32).tiny)  # smallest normal float32, 1.2e-38
 
 
 @dataclass
@@ -32,21 +40,24 @@ class BadValues:
     by_field: dict = field(default_factory=dict)  # field name -> splats with a non-finite value there
     action: str = "fix"
     dropped: int = 0
+    nonpositive_scales: int = 0  # finite splats with a scale <= 0
 
     @property
     def total(self) -> int:
-        return self.nonfinite + self.zero_quaternions
+        return self.nonfinite + self.zero_quaternions + self.nonpositive_scales
 
     def summary(self) -> str:
         if not self.total:
-            return "no NaN/Inf values or zero quaternions"
+            return "no NaN/Inf values, zero quaternions or non-positive scales"
         where = ", ".join(f"{k} {v}" for k, v in self.by_field.items() if v)
         verb = {"fix": "neutralised", "drop": "dropped", "error": "rejected"}[self.action]
         return (f"{self.nonfinite} splats with NaN/Inf ({where or 'none'}), "
-                f"{self.zero_quaternions} zero quaternions: {verb}")
+                f"{self.zero_quaternions} zero quaternions, "
+                f"{self.nonpositive_scales} negative or zero scales: {verb}")
 
     def as_dict(self) -> dict:
         return {"nonfinite": self.nonfinite, "zero_quaternions": self.zero_quaternions,
+                "nonpositive_scales": self.nonpositive_scales,
                 "by_field": dict(self.by_field), "action": self.action, "dropped": self.dropped}
 
 
@@ -70,8 +81,9 @@ def _rows_nonfinite(arr: np.ndarray) -> np.ndarray:
     return suspect
 
 
-def find_bad(splats: SplatSet) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(nonfinite mask, zero-quaternion mask, per-field counts)."""
+def find_bad(splats: SplatSet) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """(nonfinite mask, zero-quaternion mask, non-positive-scale mask, per-field counts);
+    a splat is counted under one heading only, NaN/Inf first."""
     n = splats.count
     nonfinite = np.zeros(n, bool)
     by_field = {}
@@ -84,26 +96,28 @@ def find_bad(splats: SplatSet) -> tuple[np.ndarray, np.ndarray, dict]:
         by_field[name] = int(mask.sum())
         nonfinite |= mask
     zero_q = ~splats.rotations.any(axis=1) & ~nonfinite
-    return nonfinite, zero_q, by_field
+    nonpos = (splats.scales.min(axis=1) <= 0) & ~nonfinite if n else np.zeros(0, bool)
+    return nonfinite, zero_q, nonpos, by_field
 
 
 def check_values(splats: SplatSet, policy: str = "fix", path=None) -> tuple[SplatSet, BadValues]:
     if policy not in POLICIES:
         raise ValueError(f"bad-value policy {policy!r} is not one of {POLICIES}")
-    nonfinite, zero_q, by_field = find_bad(splats)
-    report = BadValues(int(nonfinite.sum()), int(zero_q.sum()), by_field, policy)
+    nonfinite, zero_q, nonpos, by_field = find_bad(splats)
+    report = BadValues(int(nonfinite.sum()), int(zero_q.sum()), by_field, policy,
+                       nonpositive_scales=int(nonpos.sum()))
     if not report.total:
         return splats, report
     if policy == "error":
         raise SplatFormatError(path, report.summary())
     if policy == "drop":
         report.dropped = report.total
-        return splats.subset(~(nonfinite | zero_q)), report
-    _neutralise(splats, nonfinite, zero_q)
+        return splats.subset(~(nonfinite | zero_q | nonpos)), report
+    _neutralise(splats, nonfinite, zero_q, nonpos)
     return splats, report
 
 
-def _neutralise(splats: SplatSet, nonfinite: np.ndarray, zero_q: np.ndarray) -> None:
+def _neutralise(splats: SplatSet, nonfinite: np.ndarray, zero_q: np.ndarray, nonpos: np.ndarray) -> None:
     idx = np.flatnonzero(nonfinite)
     for name in _FIELDS:
         arr = getattr(splats, name)
@@ -113,6 +127,7 @@ def _neutralise(splats: SplatSet, nonfinite: np.ndarray, zero_q: np.ndarray) -> 
     splats.opacities[idx] = 0.0
     fixed = splats.rotations[idx]
     fixed[~fixed.any(axis=1)] = (1.0, 0.0, 0.0, 0.0)
-    fixed /= np.linalg.norm(fixed, axis=1, keepdims=True)
-    splats.rotations[idx] = fixed
+    splats.rotations[idx] = normalize_quats_(fixed)  # in float64: no under/overflow to 0 or inf
     splats.rotations[zero_q] = (1.0, 0.0, 0.0, 0.0)
+    rows = np.flatnonzero(nonfinite | nonpos)
+    splats.scales[rows] = np.maximum(np.abs(splats.scales[rows]), np.float32(TINY_SCALE))

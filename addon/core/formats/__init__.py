@@ -1,6 +1,6 @@
 """Splat file formats: one module per format, one entry point.
 
-    read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix") -> SplatSet
+    read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", max_splats=None) -> SplatSet
     read_with_report(path, ...) -> (SplatSet, ReadReport)
     write(path, splats, format=None)
 
@@ -90,16 +90,18 @@ def _reader(fmt: str):
 
 
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
-                     format=None, axes=None) -> tuple[SplatSet, ReadReport]:
+                     format=None, axes=None, max_splats=None) -> tuple[SplatSet, ReadReport]:
     """Decode a file, handle bad values by policy `bad` ("fix", "drop", "error"), then apply
     the import options. `axes` overrides the file's axis convention (e.g. "RUB" for an spz
-    written by Niantic's own tools); `format` skips detection."""
+    written by Niantic's own tools); `format` skips detection. `max_splats` is the splat
+    budget: a file claiming more is refused before anything is decompressed or allocated
+    (None: what fits in available memory; unlike max_count, it never subsamples)."""
     if axes is not None and axes not in AXES:
         raise ValueError(f"axes {axes!r} is not one of {AXES}")
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
     try:  # open/read can still fail after the stat checks (permission denied, I/O error)
         fmt = format or detect_format(path)
-        splats = _reader(fmt)(path, max_degree=max_degree)
+        splats = _reader(fmt)(path, max_degree=max_degree, max_splats=max_splats)
     except OSError as exc:
         raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
@@ -112,8 +114,8 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
 
 
 def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", format=None,
-         axes=None) -> SplatSet:
-    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format, axes)[0]
+         axes=None, max_splats=None) -> SplatSet:
+    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format, axes, max_splats)[0]
 
 
 def format_for_output(path) -> str:
@@ -135,6 +137,7 @@ def write(path, splats: SplatSet, format=None) -> None:
         splats = reframe(splats, WRITE_AXES[fmt])
     if os.path.isdir(path):
         raise SplatFormatError(path, "is a directory")
+    _refuse_negative_scales(path, splats)
     if fmt == "ply":
         from .ply import write_ply
         write_ply(path, splats)
@@ -149,3 +152,12 @@ def write(path, splats: SplatSet, format=None) -> None:
         write_gltf(path, splats, binary_container=fmt == "glb")
     else:
         raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(WRITE_FORMATS)}")
+
+
+def _refuse_negative_scales(path, splats: SplatSet) -> None:
+    """A negative or NaN scale has no log (the PLY encoding) and is not a size: refuse it
+    rather than write NaN. Zero passes (log 0 = -inf reads back as 0)."""
+    bad = int((~(splats.scales >= 0)).any(axis=1).sum())
+    if bad:
+        raise SplatFormatError(path, f"{bad} splats have negative or NaN scales; read the source "
+                                     f"with bad='fix' or 'drop' first")

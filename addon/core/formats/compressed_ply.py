@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
+from ._common import check_budget, normalize_quats_
 from .ply import columns, sh_rest_from
 from .plyheader import parse_header, read_body
 
@@ -58,7 +59,8 @@ def _unpack_rotation(packed: np.ndarray) -> np.ndarray:
         src = np.clip(j - (j > which), 0, 2)
         stored = np.take_along_axis(three, src[:, None], axis=1)[:, 0]
         wxyz[:, j] = np.where(which == j, largest, stored)
-    return wxyz
+    # stored components can square-sum past 1 (0xFFFFFFFF gives |q| = 1.22): renormalise
+    return normalize_quats_(wxyz)
 
 
 def _require(path, rec: np.ndarray, names, element: str) -> None:
@@ -67,8 +69,10 @@ def _require(path, rec: np.ndarray, names, element: str) -> None:
         raise SplatFormatError(path, f"compressed PLY {element} element lacks: {', '.join(missing)}")
 
 
-def read_compressed_ply(path, max_degree: int = 3) -> SplatSet:
+def read_compressed_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     header = parse_header(path)
+    vertex, sh = header.element("vertex"), header.element("sh")
+    check_budget(path, vertex.count if vertex else 0, len(sh.props) if sh else 0, max_splats)
     body = read_body(path, header)
     if "chunk" not in body or "vertex" not in body:
         raise SplatFormatError(path, "compressed PLY needs a chunk and a vertex element")

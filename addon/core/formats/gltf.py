@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count
-from ._common import file_size, normalize_quats_
+from ._common import check_budget, file_size, normalize_quats_
 
 EXT = "KHR_gaussian_splatting"
 GLB_MAGIC = b"glTF"
@@ -291,7 +291,7 @@ def half_turn_z(s: SplatSet, to_rdf: bool = True) -> SplatSet:
     return s
 
 
-def read_gltf(path, max_degree: int = 3) -> SplatSet:
+def read_gltf(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     doc, binary = _load(path)
     found = _splat_primitives(path, doc)
     _check_nodes(path, doc, {m for m, _, _, _ in found})
@@ -302,6 +302,9 @@ def read_gltf(path, max_degree: int = 3) -> SplatSet:
         if prim.get("mode", 4) != 0:
             raise SplatFormatError(path, f"splat primitive mode is {prim.get('mode', 4)}, not POINTS (0)")
         parts.append(_read_primitive(path, doc, buffers, prim, max_degree))
+        # glTF is not compressed: every count was checked against its buffer's real bytes
+        # before allocating, so the budget can be checked on what was actually read
+        check_budget(path, sum(p.count for p in parts), 0, max_splats)
     return parts[0] if len(parts) == 1 else _concat(parts)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, RENDER_MAX_DEGREE, FILE_MAX_DEGREE, SplatSet, file_sh_degree, sh_coeff_count
-from ._common import logit, normalize_quats_, sigmoid_, write_file
+from ._common import check_budget, logit, normalize_quats_, sigmoid_, write_file
 from .plyheader import parse_header, read_body
 
 POS = ("x", "y", "z")
@@ -139,13 +139,15 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
     )
 
 
-def read_ply(path, max_degree: int = 3) -> SplatSet:
+def read_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     header = parse_header(path)
     vertex = header.element("vertex")
     if vertex is None:
         raise SplatFormatError(path, "PLY has no vertex element")
     if header.element("chunk") is not None:
         raise SplatFormatError(path, "this is a compressed PLY (chunk element); read it as compressed_ply")
+    rest = sum(1 for name in vertex.names() if name.startswith("f_rest_"))
+    check_budget(path, vertex.count, rest, max_splats)
     body = read_body(path, header)
     return decode_vertices(path, body["vertex"], max_degree)
 

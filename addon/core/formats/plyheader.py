@@ -61,6 +61,9 @@ def _read_header_text(path, size: int) -> tuple[str, int]:
         if end >= 0:
             # comments written by some tools carry UTF-8; keywords and names are ASCII
             return head[:end].decode("utf-8", errors="replace"), end + len(marker)
+    if len(head) == MAX_HEADER:  # the header may be fine, only longer than we scan
+        raise SplatFormatError(path, f"PLY header is longer than the {MAX_HEADER >> 20} MiB limit "
+                                     f"(no end_header in its first {MAX_HEADER} bytes)")
     raise SplatFormatError(path, "PLY header has no end_header (truncated or not a PLY)")
 
 

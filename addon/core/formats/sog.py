@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count
-from ._common import file_size
+from ._common import check_budget, file_size
 from .webp import read_rgba
 
 MAX_SPLATS = 1 << 28          # WebP's 16383 x 16383 texel ceiling
@@ -243,10 +243,12 @@ def _sh_rest(files, meta, count, max_pixels, max_degree) -> np.ndarray:
     return rest
 
 
-def read_sog(path, max_degree: int = 3) -> SplatSet:
+def read_sog(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     files = _Files(path)
     try:
         meta = parse_meta(path, files.meta())
+        # the palette's band count is checked later; budget for the most a SOG can hold
+        check_budget(files.path, meta["count"], 3 * sh_coeff_count(3) if meta.get("shN") else 0, max_splats)
         return _decode(files, meta, max_degree)
     finally:
         files.close()

@@ -12,17 +12,18 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RDF, SplatSet
-from ._common import file_size, normalize_quats_, write_file
+from ._common import check_budget, file_size, normalize_quats_, write_file
 
 RECORD = np.dtype([("position", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4), ("rot", "u1", 4)])
 assert RECORD.itemsize == 32
 
 
-def read_splat(path, max_degree: int = 3) -> SplatSet:
+def read_splat(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     size = file_size(path)
     if size % RECORD.itemsize:
         raise SplatFormatError(path, f"truncated or not a .splat: {size} bytes is not a multiple of "
                                      f"{RECORD.itemsize}")
+    check_budget(path, size // RECORD.itemsize, 0, max_splats)
     rec = np.fromfile(path, RECORD)
     n = rec.shape[0]
     rgba = rec["rgba"].astype(np.float32) / np.float32(255.0)

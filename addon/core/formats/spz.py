@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, FILE_MAX_DEGREE, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
-from ._common import normalize_quats_, read_bytes
+from ._common import check_budget, normalize_quats_, read_bytes
 
 MAGIC = b"NGSP"
 MAX_FILE = 1 << 33
@@ -55,7 +55,7 @@ def _sizes(version: int, n: int, degree: int) -> list:
     return [n * pos, n, n * 3, n * 3, n * rot, n * 3 * sh_coeff_count(degree)]
 
 
-def _parse_header(path, head: bytes, versions) -> tuple:
+def _parse_header(path, head: bytes, versions, max_splats=None) -> tuple:
     if len(head) < 16:
         raise SplatFormatError(path, "truncated: spz header is shorter than 16 bytes")
     magic, version, n, degree, frac, flags = struct.unpack_from("<4sIIBBB", head)
@@ -68,15 +68,16 @@ def _parse_header(path, head: bytes, versions) -> tuple:
         raise SplatFormatError(path, f"spz SH degree {degree} is not supported (0..{FILE_MAX_DEGREE})")
     if frac > 24:
         raise SplatFormatError(path, f"spz fractional bits {frac} out of range")
+    check_budget(path, n, 3 * sh_coeff_count(degree), max_splats)
     return version, n, degree, frac, flags
 
 
-def _gunzip_bounded(path, data: bytes) -> bytes:
+def _gunzip_bounded(path, data: bytes, max_splats=None) -> bytes:
     """Whole-file gzip (v1-3): read the header, then exactly the size it implies."""
     d = zlib.decompressobj(16 + zlib.MAX_WBITS)
     try:
         head = d.decompress(data, 16)
-        version, n, degree, _, _ = _parse_header(path, head, (1, 2, 3))
+        version, n, degree, _, _ = _parse_header(path, head, (1, 2, 3), max_splats)
         expect = sum(_sizes(version, n, degree))
         if expect > GZIP_RATIO * len(data) + 1024:
             raise SplatFormatError(path, f"header claims {n} splats ({expect} bytes), more than "
@@ -99,8 +100,8 @@ def _blocks(body: bytes, sizes) -> list:
     return out
 
 
-def _read_v4(path, data: bytes) -> tuple:
-    version, n, degree, frac, flags = _parse_header(path, data[:16], (4,))
+def _read_v4(path, data: bytes, max_splats=None) -> tuple:
+    version, n, degree, frac, flags = _parse_header(path, data[:16], (4,), max_splats)
     if len(data) < 32:
         raise SplatFormatError(path, "truncated: spz v4 header is shorter than 32 bytes")
     stream_count, toc_offset = data[15], struct.unpack_from("<I", data, 16)[0]
@@ -145,14 +146,14 @@ def _unzstd_bounded(path, chunk: bytes, expect: int) -> np.ndarray:
     return np.frombuffer(out, np.uint8)
 
 
-def read_spz(path, max_degree: int = 3) -> SplatSet:
+def read_spz(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     data = read_bytes(path, MAX_FILE)
     if data[:2] == b"\x1f\x8b":
-        raw = _gunzip_bounded(path, data)
+        raw = _gunzip_bounded(path, data, max_splats)
         head = _parse_header(path, raw[:16], (1, 2, 3))
         blocks = _blocks(raw[16:], _sizes(head[0], head[1], head[2]))
     elif data[:4] == MAGIC:
-        head, blocks = _read_v4(path, data)
+        head, blocks = _read_v4(path, data, max_splats)
     else:
         raise SplatFormatError(path, "not an spz file (neither gzip nor NGSP magic)")
     return _decode(head, blocks, max_degree)

@@ -205,7 +205,9 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     world = np.array(obj_eval.matrix_world, np.float64)
     base, base_key = base_splats(obj_eval, depsgraph)
-    name = obj_eval.original.name  # key[0] is the object's name (callers match on it)
+    # key[0] is the object's name_full (callers match on it): a linked object may share
+    # its .name with a local one
+    name = obj_eval.original.name_full
     settings = getattr(obj_eval, "splatline", None)
     if settings is None:
         key = (name, base_key)

@@ -86,3 +86,19 @@ def test_prune_and_reads_on_two_threads(bpy_empty, monkeypatch):
     finally:
         sys.setswitchinterval(old)
     assert not errors, errors[:1]
+
+
+def test_cache_key_follows_what_the_kernel_reads(bpy_empty, testdata):
+    """Explode's start in seconds is start frame / fps: frame 48 at 24 fps and frame 96 at
+    48 fps are the same time but different splats, so their keys must differ."""
+    bpy = bpy_empty
+    obj = import_file(bpy.context, str(testdata / "test64.ply"))
+    effect = obj.splatline.effects.add()
+    effect.type, effect.start_frame, effect.strength = "EXPLODE", 24.0, 1.0
+    render = bpy.context.scene.render
+    render.fps, render.fps_base = 24, 1.0
+    slow = _item(bpy, obj, 48)
+    render.fps = 48
+    fast = _item(bpy, obj, 96)
+    assert not np.array_equal(slow.splats.positions, fast.splats.positions)
+    assert slow.key != fast.key

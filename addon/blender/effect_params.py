@@ -6,6 +6,7 @@ Morph targets are the target object's base splats mapped into the source object'
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
@@ -14,7 +15,6 @@ from ..core import effects as fx
 from ..core.effects.morph import pair
 from ..core.reframe import sh_rotation
 from ..core.splats import SplatSet, sh_degree_for
-from .effect_props import FIELDS
 
 POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
 TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through keyframes
@@ -153,13 +153,17 @@ def build(effect, frame: np.ndarray, fps: float, morph_target=None):
     raise ValueError(f"unknown effect type {kind!r}")
 
 
-def signature(effect, frame: np.ndarray, extra=()) -> tuple:
-    """Everything an effect's output depends on besides the input splats and time."""
-    values = [effect.type, bool(effect.enabled), float(effect.amount), frame.tobytes()]
-    for name in FIELDS[effect.type]:
-        value = getattr(effect, name)
-        values.append(tuple(value) if hasattr(value, "__len__") and not isinstance(value, str)
-                      else (value.name_full if hasattr(value, "name_full") else value))
+def signature(params, extra=()) -> tuple:
+    """Everything an effect's output depends on besides the input splats and time: the
+    fields of the core parameters the kernel reads (not the panel's property list, which
+    can miss a derived value such as Explode's start in seconds = start frame / fps).
+    A morph's target and pairing are identified by `extra` (target key, relative matrix)."""
+    values = [type(params).__name__]
+    for spec in dataclasses.fields(params):
+        if spec.name in ("target", "pairing"):
+            continue
+        value = getattr(params, spec.name)
+        values.append(value.tobytes() if isinstance(value, np.ndarray) else value)
     return tuple(values) + tuple(extra)
 
 

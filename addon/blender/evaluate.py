@@ -187,7 +187,7 @@ def _effect_stack(obj_eval, depsgraph, world, fps, time, source, source_key):
         stack.append(effect_params.build(effect, frame, fps, morph))
         if effect.type in effect_params.TIME_TYPES:
             extra += (time,)
-        signature.append(effect_params.signature(effect, frame, extra))
+        signature.append(effect_params.signature(stack[-1], extra))
         if effect.type in effect_params.POSITION_TYPES:
             moving.append(signature[-1])
     return stack, tuple(signature), tuple(moving)

@@ -36,9 +36,10 @@ def test_viewport_draws_between_final_renders(bpy_empty, tmp_path):
     straight = np.divide(first[..., :3], alpha, out=np.zeros_like(first[..., :3]), where=alpha > 0)
     engine_srgb = np.concatenate([linear_to_srgb(straight) * alpha, alpha], axis=-1)
     assert drawn[..., 3].max() > 0.5
-    # Two implementations of one semantics (gpu module vs moderngl): the viewport tests
-    # hold them to the reference; here 35 dB only proves the gpu draw is intact.
-    assert psnr(drawn, engine_srgb) > 35.0
+    # Two implementations of one semantics (gpu module vs moderngl), each held to the
+    # reference at 60 dB (test_viewport.py explains the bar; measured here: 144 dB). The
+    # old 35 dB bar passed a missing low-pass term (39 dB), so this one is the reference's.
+    assert psnr(drawn, engine_srgb) > 60.0
 
     second = _render(bpy, scene, tmp_path / "second")
     np.testing.assert_array_equal(second, first)

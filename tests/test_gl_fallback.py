@@ -56,3 +56,27 @@ def test_fallback_empty_and_culled(fallback):
     s.rotations[:] = np.nan
     out = fallback.render([RenderItem(s, world=world_for(s))], cam)
     assert not out.rgba.any()
+
+
+def test_frames_past_the_storage_limit_fall_back_by_themselves(fallback, caplog):
+    """A frame with more splats than one storage block holds (~8.4M at 128 MiB; forced
+    here to 1000) renders on the GL 3.3 path, said once in the log; smaller frames stay
+    on the compute path."""
+    big = [RenderItem(random_splats(1500, 1, seed=5), sh_degree=1),
+           RenderItem(random_splats(700, 1, seed=6), sh_degree=1)]
+    cam = framing_camera(big[0], 64, 48)
+    small = big[1:]
+    want = fallback.render(big, cam).rgba
+    ref = reference.render(big, cam, RenderOptions()).rgba
+    with OffscreenRenderer() as r:
+        r._worker.call(lambda: setattr(r._state.cache, "max_block", 16 * 1000))
+        with caplog.at_level("WARNING"):
+            first = r.render(big, cam).rgba
+            second = r.render(big, cam).rgba
+            r.render(small, cam)
+        assert r.uses_compute and r.stats["gpu_sorts"] >= 1
+        assert len(r.last_order()) > 0  # the small frame came back to the compute path
+    assert np.array_equal(first, want) and np.array_equal(second, want)
+    assert psnr(first, ref) >= MIN_PSNR
+    said = [rec.getMessage() for rec in caplog.records if "storage blocks" in rec.getMessage()]
+    assert len(said) == 1 and "2,200" in said[0] and "GL 3.3" in said[0]

@@ -150,6 +150,17 @@ def _subset(item, camera, wall):
     return replace(item, splats=item.splats.subset(d < wall))
 
 
+def _pixels(item, camera):
+    """Image positions (x, y) of an item's centres (Blender camera: looks down -z)."""
+    local = np.c_[item.splats.positions, np.ones(item.splats.count)]
+    view = local @ (camera.world_to_camera @ item.world).T
+    depth = -view[:, 2]
+    keep = depth > camera.near
+    x = camera.cx + camera.fx * view[keep, 0] / depth[keep]
+    y = camera.cy - camera.fy * view[keep, 1] / depth[keep]
+    return np.c_[x, y]
+
+
 def test_display_modes_change_the_picture(gpu_ready, scene):
     """Each display option draws something different from the default, and SH degree 0
     equals the reference with the SH cap at 0."""
@@ -168,6 +179,14 @@ def test_display_modes_change_the_picture(gpu_ready, scene):
     assert psnr(img, capped) >= PSNR_MIN
     points, _ = draw_offscreen(items, camera, [ItemDisplay(mode="POINTS")] * 2)
     assert set(np.unique(points[..., 3])) <= {0.0, 1.0}  # opaque dots, no falloff
+    grey = [replace(i, splats=replace(i.splats, sh_dc=np.zeros_like(i.splats.sh_dc))) for i in items]
+    want = reference.render(grey, camera, RenderOptions()).rgba
+    img, _ = draw_offscreen(items, camera, [ItemDisplay(sh_only=True)] * 2)
+    assert psnr(img, want) >= PSNR_MIN  # "SH only": the higher bands over grey (DC 0)
+    lit = np.argwhere(points[..., 3] > 0)[:, ::-1] + 0.5  # pixel centres (x, y)
+    dots = np.concatenate([_pixels(i, camera) for i in items])
+    near = np.abs(lit[:, None, :] - dots[None]).max(axis=2).min(axis=1)
+    assert len(lit) and near.max() <= 2.0 + 1e-3  # every lit pixel is a dot at a centre
 
 
 def test_no_items_draws_nothing(gpu_ready, scene):

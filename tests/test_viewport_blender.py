@@ -221,6 +221,7 @@ def test_selection_does_not_reread_but_a_look_edit_does(bpy_empty):
 
 
 def test_hidden_objects_and_collections_are_not_drawn(bpy_empty):
+    from addon.blender import evaluate
     from addon.blender.viewport.scene_items import SceneItems
 
     bpy = bpy_empty
@@ -250,6 +251,16 @@ def test_hidden_objects_and_collections_are_not_drawn(bpy_empty):
     coll.hide_viewport = False
     a.hide_viewport = True
     assert names() == ["b"]
+    a.hide_viewport = False
+    b.splatline.look.visible = False  # Look > Show off: not packed, uploaded or sorted
+    evaluated = []
+    real = evaluate.item_for
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(evaluate, "item_for", lambda o, d=None: evaluated.append(o.name) or real(o, d))
+        assert names() == ["a"]
+        cache.invalidate()
+        evaluated.clear()
+        assert names() == ["a"] and evaluated == ["a"]
 
 
 def _far_camera(width=64, height=48, distance=6.0):

@@ -6,14 +6,15 @@ Morph targets are the target object's base splats mapped into the source object'
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
 
 from ..core import effects as fx
 from ..core.effects.morph import pair
-from ..core.splats import SplatSet
-from .effect_props import FIELDS
+from ..core.reframe import sh_rotation
+from ..core.splats import SplatSet, sh_degree_for
 
 POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
 TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through keyframes
@@ -104,12 +105,17 @@ def relative_to(world: np.ndarray, other: np.ndarray) -> np.ndarray:
 
 
 def gizmo_frame(effect, world: np.ndarray, depsgraph) -> np.ndarray:
-    if effect.gizmo is not None:
-        target = world_matrix(effect.gizmo, depsgraph)
-    else:
-        target = np.eye(4)
-        target[:3, 3] = world[:3, 3]
-    return relative_to(world, target)
+    gizmo = world_matrix(effect.gizmo, depsgraph) if effect.gizmo is not None else None
+    return field_frame(world, gizmo)
+
+
+def field_frame(world: np.ndarray, gizmo_world=None) -> np.ndarray:
+    """A field's frame relative to the object (object <- field): the gizmo's, or without
+    one world-aligned axes at the object's origin. Presets measure bounds in it too."""
+    if gizmo_world is None:
+        gizmo_world = np.eye(4)
+        gizmo_world[:3, 3] = world[:3, 3]
+    return relative_to(world, gizmo_world)
 
 
 def _stops(effect):
@@ -147,13 +153,17 @@ def build(effect, frame: np.ndarray, fps: float, morph_target=None):
     raise ValueError(f"unknown effect type {kind!r}")
 
 
-def signature(effect, frame: np.ndarray, extra=()) -> tuple:
-    """Everything an effect's output depends on besides the input splats and time."""
-    values = [effect.type, bool(effect.enabled), float(effect.amount), frame.tobytes()]
-    for name in FIELDS[effect.type]:
-        value = getattr(effect, name)
-        values.append(tuple(value) if hasattr(value, "__len__") and not isinstance(value, str)
-                      else (value.name_full if hasattr(value, "name_full") else value))
+def signature(params, extra=()) -> tuple:
+    """Everything an effect's output depends on besides the input splats and time: the
+    fields of the core parameters the kernel reads (not the panel's property list, which
+    can miss a derived value such as Explode's start in seconds = start frame / fps).
+    A morph's target and pairing are identified by `extra` (target key, relative matrix)."""
+    values = [type(params).__name__]
+    for spec in dataclasses.fields(params):
+        if spec.name in ("target", "pairing"):
+            continue
+        value = getattr(params, spec.name)
+        values.append(value.tobytes() if isinstance(value, np.ndarray) else value)
     return tuple(values) + tuple(extra)
 
 
@@ -161,7 +171,8 @@ def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
     """Splats of another object expressed in this object's space (relative: 4x4 this<-that).
 
     The linear part is split as R * s with s the cube root of |det| (exact for rotation and
-    uniform scale; a non-uniform relative scale is approximated by its mean)."""
+    uniform scale; a non-uniform relative scale is approximated by its mean). R turns the
+    centres, the rotations and the SH coefficients."""
     linear = relative[:3, :3]
     s = abs(np.linalg.det(linear)) ** (1.0 / 3.0)
     if s == 0.0:
@@ -173,7 +184,16 @@ def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
     q = _quat_from_matrix(rot).astype(np.float32)
     rotations = fx.common.quat_multiply(np.broadcast_to(q, (splats.count, 4)), splats.rotations)
     return SplatSet(positions, splats.scales * np.float32(s), rotations, splats.opacities,
-                    splats.sh_dc, splats.sh_rest, splats.axes)
+                    splats.sh_dc, rotate_sh(splats.sh_rest, rot), splats.axes)
+
+
+def rotate_sh(rest: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """Higher SH (N, K, 3) of splats turned by rot: their colours turn with them, as
+    reframe does for an axis convention (a morph target keeps its look from every side)."""
+    m = sh_rotation(rot, sh_degree_for(rest.shape[1]))
+    if m.size == 0 or np.allclose(m, np.eye(len(m)), atol=1e-9):
+        return rest
+    return np.einsum("jk,nkc->njc", m.astype(np.float32), rest, optimize=True)
 
 
 def _quat_from_matrix(m: np.ndarray) -> np.ndarray:

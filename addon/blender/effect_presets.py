@@ -10,6 +10,7 @@ import bpy
 from bpy_extras import anim_utils
 
 from ..core import effect_presets as core
+from . import effect_params
 from .evaluate import is_splat_object
 from .pointcloud import read_positions
 from .presets import find_preset, list_presets
@@ -27,9 +28,16 @@ def apply_preset(obj, preset: core.EffectPreset, frame: float, target=None) -> l
     if any(block.type == "MORPH" for block in preset.effects) and target is None:
         raise core.PresetError(f"{_name(preset)}: morphs, so select a second splat object "
                                "as the target")
-    context = core.bounds_context(read_positions(obj.data), frame)
+    context = core.bounds_context(read_positions(obj.data), frame, _field(obj))
     _rehearse(preset, frame, target, context)
     return _apply_all(obj, preset, frame, target, context)
+
+
+def _field(obj):
+    """Where a preset's new effects measure their fields: without a gizmo, world-aligned
+    axes at the object's origin (effect_params.field_frame), at the current frame."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return effect_params.field_frame(effect_params.world_matrix(obj, depsgraph))
 
 
 # What a bad preset raises from bpy or resolve(): unknown or read-only property (AttributeError,

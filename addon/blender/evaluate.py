@@ -11,6 +11,7 @@ function of the data and the property values at t.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import replace
 
 import numpy as np
@@ -62,29 +63,26 @@ def _sample(pointcloud, count: int, samples: int = 16) -> tuple:
     return tuple(out)
 
 
-def _animated(obj) -> bool:
-    for owner in (obj, obj.data):
-        anim = getattr(owner, "animation_data", None)
-        if anim is not None and (anim.action is not None or len(anim.drivers)):
-            return True
-    return False
-
-
 class BaseCache:
     """SplatSets read from evaluated PointClouds, keyed by what makes them change.
 
-    The key holds the data's name and point count, a sample of its values, and a version
-    bumped by depsgraph updates that report the PointCloud's geometry changed. Animated
-    objects are excluded from the latter: Blender reports their geometry as updated on
-    every re-evaluation, which would re-read the data (~1 s per 1M splats) per frame; the
-    sample covers them. Objects sharing one PointCloud without modifiers (linked duplicates)
-    share one entry; objects with modifiers have their own, also keyed by frame. Cached
-    arrays are read-only: kernels and renderers never write them.
+    The key holds the data's name and point count, a version bumped by every depsgraph
+    update that reports the PointCloud's geometry changed, and a sample of its values
+    (for data replaced without an update we could see). Animated objects count too:
+    measured (bpy 5.0), frame changes send no depsgraph_update_post, so playback re-reads
+    nothing, while an edit of the data sends one. Objects sharing one PointCloud without
+    modifiers (linked duplicates) share one entry; objects with modifiers have their own,
+    also keyed by frame. Cached arrays are read-only: kernels and renderers never write them.
+
+    The viewport (main thread) and a render thread share one cache: `lock` guards the
+    dicts. bpy is read only outside it, by the thread that asked (each reads its own
+    depsgraph), so a slow read never blocks the other thread's hits.
     """
 
     def __init__(self):
+        self.lock = threading.Lock()
         self.versions: dict[str, int] = {}
-        self.entries: dict[str, tuple] = {}
+        self.entries: dict[tuple, tuple] = {}
 
     def key(self, obj_eval, depsgraph) -> tuple:
         original = obj_eval.original
@@ -94,20 +92,22 @@ class BaseCache:
         modified = len(original.modifiers) > 0
         slot = ("object", original.name_full) if modified else ("data", data_name)
         frame = depsgraph.scene_eval.frame_float if modified else None
-        return (slot, data_name, self.versions.get(data_name, 0), count, frame,
-                hash(_sample(data, count)))
+        with self.lock:
+            version = self.versions.get(data_name, 0)
+        return (slot, data_name, version, count, frame, hash(_sample(data, count)))
 
     def get(self, obj_eval, depsgraph):
         key = self.key(obj_eval, depsgraph)
-        name = key[0]
-        hit = self.entries.get(name)
+        with self.lock:
+            hit = self.entries.get(key[0])
         if hit is None or hit[0] != key:
             splats = splats_from_pointcloud(obj_eval.data)
             for array in (splats.positions, splats.scales, splats.rotations, splats.opacities,
                           splats.sh_dc, splats.sh_rest):
                 array.flags.writeable = False
             hit = (key, splats)
-            self.entries[name] = hit
+            with self.lock:
+                self.entries[key[0]] = hit
             self.prune()
         return hit[1], hit[0]
 
@@ -115,23 +115,21 @@ class BaseCache:
         """Let the data of deleted objects and PointClouds go (1M splats hold ~250 MB)."""
         alive = {("object", o.name_full) for o in bpy.data.objects}  # only after a read: rare
         alive |= {("data", d.name_full) for d in bpy.data.pointclouds}
-        for slot in [s for s in self.entries if s not in alive]:
-            self.entries.pop(slot, None)
+        with self.lock:
+            for slot in [s for s in self.entries if s not in alive]:
+                del self.entries[slot]
 
     def on_update(self, depsgraph) -> None:
-        updates = list(depsgraph.updates)
-        animated_data = {u.id.original.data.name_full for u in updates
-                         if isinstance(u.id, bpy.types.Object) and u.id.original.data is not None
-                         and _animated(u.id.original)}
-        for update in updates:
-            if isinstance(update.id, bpy.types.PointCloud) and update.is_updated_geometry:
-                name = update.id.original.name_full
-                if name not in animated_data:
-                    self.versions[name] = self.versions.get(name, 0) + 1
+        changed = [u.id.original.name_full for u in depsgraph.updates
+                   if isinstance(u.id, bpy.types.PointCloud) and u.is_updated_geometry]
+        with self.lock:
+            for name in changed:
+                self.versions[name] = self.versions.get(name, 0) + 1
 
     def clear(self) -> None:
-        self.entries.clear()
-        self.versions.clear()
+        with self.lock:
+            self.entries.clear()
+            self.versions.clear()
 
 
 _BASE = BaseCache()
@@ -186,7 +184,7 @@ def _effect_stack(obj_eval, depsgraph, world, fps, time, source, source_key):
         stack.append(effect_params.build(effect, frame, fps, morph))
         if effect.type in effect_params.TIME_TYPES:
             extra += (time,)
-        signature.append(effect_params.signature(effect, frame, extra))
+        signature.append(effect_params.signature(stack[-1], extra))
         if effect.type in effect_params.POSITION_TYPES:
             moving.append(signature[-1])
     return stack, tuple(signature), tuple(moving)
@@ -202,7 +200,9 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     world = np.array(obj_eval.matrix_world, np.float64)
     base, base_key = base_splats(obj_eval, depsgraph)
-    name = obj_eval.original.name  # key[0] is the object's name (callers match on it)
+    # key[0] is the object's name_full (callers match on it): a linked object may share
+    # its .name with a local one
+    name = obj_eval.original.name_full
     settings = getattr(obj_eval, "splatline", None)
     if settings is None:
         key = (name, base_key)

@@ -97,9 +97,10 @@ def import_sequence(context, path, *, align=ALIGN_FILE_NUMBERS, loop_mode=core_s
 
 
 def evaluated_item(obj, depsgraph):
-    """evaluate.py's RenderItem for obj (matched by the item key's object name)."""
+    """evaluate.py's RenderItem for obj (matched by the item key's name_full: a linked
+    object may share its .name with a local one)."""
     for item in collect_items(depsgraph):
-        if item.key is not None and item.key[0] == obj.name:
+        if item.key is not None and item.key[0] == obj.name_full:
             return item
     raise LookupError(f"object {obj.name!r} is not a visible splat object in the view layer")
 

@@ -168,7 +168,7 @@ def sequence_frame(obj_eval, depsgraph) -> SequenceFrame | None:
         return None
     pattern = settings.pattern(resolved_directory(obj_eval, settings))
     time = depsgraph.scene_eval.frame_float
-    owner = obj_eval.original.name if obj_eval.original is not None else obj_eval.name
+    owner = (obj_eval.original or obj_eval).name_full  # unique, also for linked objects
     return runtime().frame(owner, pattern, time, settings.start_frame, settings.speed,
                            settings.frame_offset, settings.loop_mode,
                            settings.cache_budget_mb * MB, settings.read_ahead)
@@ -182,4 +182,4 @@ def splats_at(obj_eval, depsgraph) -> SplatSet | None:
 
 def report_for(obj) -> str:
     """The object's last sequence problem ('' when its frames load fine), for the UI."""
-    return "" if _runtime is None else _runtime.reports.get(obj.name, "")
+    return "" if _runtime is None else _runtime.reports.get(obj.name_full, "")

@@ -9,8 +9,11 @@ A preset is JSON (presets/effects/*.json):
                   "interpolation": "BEZIER"}]}
 
 Key frames are offsets from the current frame. A value may be a number, a string, a list,
-or an arithmetic expression over the object's bounds (zmin, zmax, radius, size) and `frame`
-(the frame the preset is applied at), so one preset fits captures of any size.
+or an arithmetic expression over the object's bounds (zmin, zmax, zlow, zhigh, radius, size)
+and `frame` (the frame the preset is applied at), so one preset fits captures of any size.
+Bounds are measured where the preset's fields measure: in the frame of a field without a gizmo
+(world-aligned axes at the object's origin, world units), not in the object's own axes, which
+an import's axis convention (or any rotation, scale or parent) turns away from the world's.
 This module is pure: parsing, validation and value resolution; applying is the Blender layer's.
 """
 from __future__ import annotations
@@ -22,7 +25,7 @@ import pathlib
 from dataclasses import dataclass, field
 
 INTERPOLATIONS = ("CONSTANT", "LINEAR", "BEZIER")
-NAMES = ("zmin", "zmax", "radius", "size", "frame")
+NAMES = ("zmin", "zmax", "zlow", "zhigh", "radius", "size", "frame")
 
 
 class PresetError(ValueError):
@@ -113,15 +116,25 @@ def _eval(node, context):
     raise ValueError(f"unsupported expression {ast.unparse(node)!r}; use numbers, {NAMES}, + - * /")
 
 
-def bounds_context(positions, frame: float) -> dict:
-    """zmin/zmax (robust 1st/99th percentile of local z), radius and size of a splat object."""
+def bounds_context(positions, frame: float, field=None) -> dict:
+    """Bounds of a splat object in a field's frame (field: 4x4, object <- field; None: the
+    object's own axes). zmin/zmax: robust 1st/99th percentiles of the field's z, for pacing
+    a sweep past stray floaters; zlow/zhigh: the exact extremes, which a sweep must pass for
+    every splat to reach its end state; radius and size."""
     import numpy as np
 
     if len(positions) == 0:
-        return {"zmin": 0.0, "zmax": 0.0, "radius": 1.0, "size": 1.0, "frame": float(frame)}
+        return {"zmin": 0.0, "zmax": 0.0, "zlow": 0.0, "zhigh": 0.0, "radius": 1.0, "size": 1.0,
+                "frame": float(frame)}
+    positions = np.asarray(positions, np.float64)
+    if field is not None:
+        to_field = np.linalg.pinv(np.asarray(field, np.float64))
+        positions = positions @ to_field[:3, :3].T + to_field[:3, 3]
+    positions = positions[np.isfinite(positions).all(axis=1)]
     z = positions[:, 2]
     lo, hi = np.percentile(positions, 1, axis=0), np.percentile(positions, 99, axis=0)
     centre = 0.5 * (lo + hi)
     radius = float(np.percentile(np.linalg.norm(positions - centre, axis=1), 99))
     return {"zmin": float(np.percentile(z, 1)), "zmax": float(np.percentile(z, 99)),
+            "zlow": float(z.min()), "zhigh": float(z.max()),
             "radius": radius, "size": float(np.max(hi - lo)), "frame": float(frame)}

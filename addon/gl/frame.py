@@ -48,15 +48,21 @@ class FrameState:
         self.last = (None, 0, 0)
         self.want_depth = True
 
+    @property
+    def record_limit(self) -> int:
+        """Most splats one frame can hold on the compute path: one vec4 record per splat
+        in one storage block (GL_MAX_SHADER_STORAGE_BLOCK_SIZE; ~8.4M at 128 MiB)."""
+        return self.cache.max_block // 16
+
     # -- frame-wide arrays -------------------------------------------------------------
     def _ensure(self, n: int):
         if n <= self.capacity:
             return
         cap = max(1024, 1 << math.ceil(math.log2(n)))
-        limit = self.cache.max_block // 16  # one vec4 record per splat per storage block
-        if n > limit:
+        limit = self.record_limit
+        if n > limit:  # OffscreenRenderer sends such frames to the GL 3.3 path instead
             raise RuntimeError(f"{n:,} splats in one frame exceed this GL's storage blocks "
-                               f"({limit:,}); render with OffscreenRenderer(compute=False)")
+                               f"({limit:,})")
         cap = min(cap, limit)
         for buf in self.arrays.values():
             buf.release()

@@ -6,11 +6,14 @@ splat data and frame buffers kept on the GPU between frames.
 """
 from __future__ import annotations
 
+import logging
 import sys
 
 from ..core.camera import Camera
 from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from .worker import GLWorker
+
+log = logging.getLogger(__name__)
 
 
 def _create_context():
@@ -53,18 +56,38 @@ class OffscreenRenderer:
             self._worker.close()
             raise
         self.gl_info = self._worker.call(lambda: dict(self._worker.ctx.info))
+        self._large = None  # the GL 3.3 state for frames past the storage-block limit
+        self._last = self._state
 
     def render(self, items: list[RenderItem], camera: Camera,
                options: RenderOptions = RenderOptions()) -> RenderOutput:
-        return self._worker.call(self._state.render, list(items), camera, options)
+        items = list(items)
+        self._last = self._state_for(sum(item.splats.count for item in items))
+        return self._worker.call(self._last.render, items, camera, options)
+
+    def _state_for(self, count: int):
+        """The compute path, or for a frame past its storage-block limit the GL 3.3 path
+        (records in textures, CPU sort): a large scene renders instead of failing with
+        advice a user of F12 cannot act on. Said once in the log."""
+        if not self._state.compute or count <= self._state.record_limit:
+            return self._state
+        if self._large is None:
+            from .frame import FrameState
+
+            self._large = self._worker.call(FrameState, self._worker.ctx, self.stats, False)
+            self._large.want_depth = self._state.want_depth
+            log.warning("Splatline: %s splats in one frame exceed this GPU's storage blocks "
+                        "(%s); rendering such frames on the GL 3.3 path (CPU sort, slower)",
+                        f"{count:,}", f"{self._state.record_limit:,}")
+        return self._large
 
     def last_order(self):
         """Back-to-front global splat indices of the last frame (for tests and tools)."""
-        return self._worker.call(self._state.last_order)
+        return self._worker.call(self._last.last_order)
 
     def last_depths(self):
         """Per-splat sort depths of the last frame (view depth minus an anchor), +inf where culled."""
-        return self._worker.call(self._state.last_depths)
+        return self._worker.call(self._last.last_depths)
 
     @property
     def depth_steps(self) -> int:
@@ -73,7 +96,14 @@ class OffscreenRenderer:
 
     def close(self):
         """Release every GPU object and the context, and join the GL thread."""
-        self._worker.close(self._state.release)
+        large = self._large
+
+        def release():
+            self._state.release()
+            if large is not None:
+                large.release()
+
+        self._worker.close(release)
 
     @property
     def uses_compute(self) -> bool:

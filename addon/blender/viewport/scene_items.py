@@ -49,7 +49,7 @@ def _effects(obj):
 def effect_inputs(obj) -> set[str]:
     """Names of the other objects whose transform or data the object's effects read:
     every effect's gizmo and morph target."""
-    return {ref.name for effect in _effects(obj) for ref in (effect.gizmo, effect.target)
+    return {ref.name_full for effect in _effects(obj) for ref in (effect.gizmo, effect.target)
             if ref is not None}
 
 
@@ -89,13 +89,19 @@ def _group_values(group, skip=()) -> tuple:
     return tuple(out)
 
 
+def by_full_name() -> dict:
+    """{name_full: object}: items are keyed by name_full, since a linked object may share
+    its .name with a local one (bpy.data.objects.get(name) finds only one of them)."""
+    return {obj.name_full: obj for obj in bpy.data.objects}
+
+
 class SceneItems:
     """Per-object item cache for the draw handler."""
 
-    def __init__(self):
+    def __init__(self):  # keyed by the objects' name_full
         self.versions: dict[str, int] = {}
-        self.items: dict[str, tuple] = {}  # name -> (version, RenderItem)
-        self.signatures: dict[str, tuple] = {}  # name -> settings_signature when last read
+        self.items: dict[str, tuple] = {}  # name_full -> (version, RenderItem)
+        self.signatures: dict[str, tuple] = {}  # name_full -> settings_signature when last read
 
     def invalidate(self, name: str | None = None) -> None:
         names = list(self.versions) if name is None else [name]
@@ -115,7 +121,7 @@ class SceneItems:
             ident = update.id
             if not isinstance(ident, bpy.types.Object):
                 continue
-            name = ident.original.name
+            name = ident.original.name_full
             if update.is_updated_transform or update.is_updated_geometry:
                 moved.add(name)
             if not update.is_updated_geometry:
@@ -137,29 +143,35 @@ class SceneItems:
         """Objects whose effects read another object that moved or changed (gizmo, morph
         target). Their own moves are caught in collect, by the world matrix: the depsgraph
         flags of an RNA edit cannot tell a move from a display-option change."""
+        objects = by_full_name()
         for name in list(self.items):
-            obj = bpy.data.objects.get(name)
+            obj = objects.get(name)
             if obj is not None and not moved.isdisjoint(effect_inputs(obj)):
                 self.invalidate(name)
 
     def _invalidate_users(self, data, skip=()) -> None:
+        objects = by_full_name()
         for name in list(self.items):
-            obj = bpy.data.objects.get(name)
+            obj = objects.get(name)
             if name not in skip and obj is not None and obj.data == data:
                 self.invalidate(name)
 
     def on_frame(self, scene) -> None:
+        objects = by_full_name()
         for name in list(self.items):
-            obj = bpy.data.objects.get(name)
+            obj = objects.get(name)
             if obj is None or time_dependent(obj):
                 self.invalidate(name)
 
     def visible(self, context):
-        """(evaluated object, original) for splat objects shown in this viewport."""
+        """(evaluated object, original) for splat objects shown in this viewport. Objects
+        whose Look > Show is off are left out: nothing is packed, uploaded or sorted for
+        them (a morph target is read through its source's effect)."""
         depsgraph = context.evaluated_depsgraph_get()
         view_layer, space = context.view_layer, context.space_data
         for obj_eval in depsgraph.objects:
-            if obj_eval.type != "POINTCLOUD" or not evaluate.is_splat_object(obj_eval):
+            if obj_eval.type != "POINTCLOUD" or not evaluate.is_splat_object(obj_eval) \
+                    or not evaluate.shown(obj_eval):
                 continue
             if native.drawn_natively(obj_eval.data):  # Blender 5.3+ draws it: never twice
                 continue
@@ -171,7 +183,7 @@ class SceneItems:
         items, displays = [], []
         seen = set()
         for obj_eval, original, depsgraph in self.visible(context):
-            name = original.name
+            name = original.name_full
             seen.add(name)
             version = self.versions.setdefault(name, 0)
             cached = self.items.get(name)

@@ -28,10 +28,13 @@ def two_object_scene(bpy, testdata, width=160, height=120, transparent=True):
     return scene
 
 
-def render_exr(bpy, scene, path, kind):
-    """Combined and Depth of one still through `kind`, and the seconds it took."""
+def render_exr(bpy, scene, path, kind, depth=True):
+    """Combined and Depth (None with depth=False) of one still through `kind`, and the
+    seconds it took."""
     scene.splatline.render.renderer = kind
-    set_output(scene, "EXR", path)
+    set_output(scene, "EXR", path)  # a multilayer EXR: it turns the Z pass on
+    for layer in scene.view_layers:
+        layer.use_pass_z = depth
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     seconds = time.perf_counter() - start

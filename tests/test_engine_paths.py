@@ -34,7 +34,6 @@ def test_both_paths_match_the_reference(bpy_empty, testdata, tmp_path):
 
     bpy = bpy_empty
     scene = two_object_scene(bpy, testdata)
-    scene.view_layers[0].use_pass_z = True
     ref = reference_frame(bpy, scene)
     assert ref.rgba[..., 3].max() > 0.5
     gl, gl_depth, _ = render_exr(bpy, scene, tmp_path / "gl", "OFFSCREEN")

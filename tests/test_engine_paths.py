@@ -157,3 +157,35 @@ def test_gpu_path_percentage_border_and_world(bpy_empty, testdata, tmp_path):
     assert np.all(opaque[..., 3] == 1.0)
     np.testing.assert_allclose(opaque[..., :3], full[..., :3] + (1.0 - full[..., 3:]) * want,
                                rtol=1e-6, atol=1e-7)
+
+
+def test_gpu_path_animation_reuses_one_renderer(bpy_empty, testdata, tmp_path):
+    """Frames of one job share the renderer (textures uploaded once), each frame its own
+    view; the job's end releases it."""
+    from addon.blender import engine
+    from engine_scene import orbit_keys, set_output
+
+    bpy = bpy_empty
+    scene = two_object_scene(bpy, testdata, 64, 48)
+    scene.splatline.render.renderer = "GPU_MODULE"
+    centre = tuple(np.array(scene.camera.location) - np.array([0.35, -0.9, 0.3]))
+    orbit_keys(bpy, scene.camera, radius=0.9, height=0.3, frames=[1, 2, 3], target=centre)
+    scene.frame_start, scene.frame_end = 1, 3
+    set_output(scene, "EXR", tmp_path / "f_####")
+    seen = []
+    hook = lambda *_: seen.append(engine._HOLDER._renderer)
+    bpy.app.handlers.render_post.append(hook)
+    try:
+        bpy.ops.render.render(animation=True)
+    finally:
+        bpy.app.handlers.render_post.remove(hook)
+    assert len(seen) == 3 and all(r is seen[0] for r in seen)
+    assert seen[0]._viewport.stats.uploads == 3, "pos, shape, sh: once for the job"
+    assert not engine._HOLDER.alive
+    from engine_scene import read_exr_parts
+
+    frames = [read_exr_parts(tmp_path / f"f_{k:04d}.exr")["ViewLayer.Combined"] for k in (1, 2, 3)]
+    for frame, rgba in zip((1, 2, 3), frames):
+        scene.frame_set(frame)
+        assert psnr(to_display(rgba), reference_frame(bpy, scene).rgba) >= MIN_PSNR
+    assert np.abs(frames[0] - frames[2]).mean() > 1e-3, "the camera moves"

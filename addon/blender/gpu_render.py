@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.scene import RenderOutput
 from .viewport import DrawSettings, ItemDisplay, ViewportRenderer
-from .viewport.offscreen import OffscreenTarget, draw_camera
+from .viewport.offscreen import draw_camera
 
 MAX_SH_DEGREE = 3  # what the shared shaders evaluate (shaders/splat_math.glsl)
 
@@ -39,7 +39,6 @@ class GpuModuleRenderer:
     def __init__(self):
         # Sorting inline: a final frame must draw its own order, not the last one.
         self._viewport = ViewportRenderer(worker=False)
-        self._target = OffscreenTarget()
 
     def render(self, items, camera, options) -> RenderOutput:
         settings = DrawSettings(sync_sort=True, linear_output=False,
@@ -48,11 +47,11 @@ class GpuModuleRenderer:
         # No frustum dilation tuning, no viewport display overrides: the splats as they are.
         display = ItemDisplay(max_sh_degree=MAX_SH_DEGREE, key_bits=options.key_bits)
         rgba = draw_camera(items, camera, settings=settings, displays=[display] * len(items),
-                           renderer=self._viewport, target=self._target,
-                           background=options.background)
+                           renderer=self._viewport, background=options.background)
         depth = np.full(rgba.shape[:2], np.inf, np.float32)
         return RenderOutput(rgba=np.ascontiguousarray(rgba), depth=depth)
 
     def close(self) -> None:
-        self._target.free()
+        # Textures and the shader are shared between Blender's GPU contexts, so they
+        # may go when the job ends, on whichever thread that is.
         self._viewport.close()

@@ -13,44 +13,23 @@ from .matrices import projection_matrix
 from .renderer import DrawSettings, ViewportRenderer
 
 
-class OffscreenTarget:
-    """One RGBA32F GPUOffScreen, kept while the frame size stays the same."""
-
-    def __init__(self):
-        self._offscreen = None
-        self._size = None
-
-    def get(self, width: int, height: int):
-        import gpu
-
-        if self._size != (width, height):
-            self.free()
-            # RGBA32F: the splats blend in float, as the moderngl path and the reference do.
-            self._offscreen = gpu.types.GPUOffScreen(width, height, format="RGBA32F")
-            self._size = (width, height)
-        return self._offscreen
-
-    def free(self) -> None:
-        if self._offscreen is not None:
-            self._offscreen.free()
-        self._offscreen, self._size = None, None
-
-
 def draw_camera(items, camera, *, settings: DrawSettings | None = None, displays=None,
-                renderer: ViewportRenderer | None = None, target: OffscreenTarget | None = None,
+                renderer: ViewportRenderer | None = None,
                 background=(0.0, 0.0, 0.0, 0.0)) -> np.ndarray:
     """Draw items as `camera` (core Camera) sees them; (H, W, 4) float32, top-down rows.
 
     background: premultiplied RGBA behind the splats. Cleared into the target, it ends up
     as C + T*bg under premultiplied blending: the reference's definition.
+    The offscreen is made and freed here, per call: a framebuffer belongs to the GPU
+    context that made it, and a render job ends (render_complete) on another thread.
     """
     import gpu
 
-    own_target = target is None
-    target = target or OffscreenTarget()
     w, h = camera.width, camera.height
+    # RGBA32F: the splats blend in float, as the moderngl path and the reference do.
+    offscreen = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
     try:
-        with target.get(w, h).bind():
+        with offscreen.bind():
             fb = gpu.state.active_framebuffer_get()
             fb.clear(color=tuple(float(c) for c in background), depth=1.0)
             draw_items(items, camera.world_to_camera, projection_matrix(camera), (w, h),
@@ -60,6 +39,5 @@ def draw_camera(items, camera, *, settings: DrawSettings | None = None, displays
             # sequence copy, which costs seconds at 1080p.
             fb.read_color(0, 0, w, h, 4, 0, "FLOAT", data=gpu.types.Buffer("FLOAT", rgba.size, rgba))
     finally:
-        if own_target:
-            target.free()
+        offscreen.free()
     return rgba[::-1]  # GL rows are bottom-up; renderers give top-down

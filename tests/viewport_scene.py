@@ -51,24 +51,11 @@ def camera_for(centre, width=120, height=90):
 
 def draw_offscreen(items, camera, displays=None, settings=None, renderer=None):
     """Draw through the viewport path into an RGBA32F GPUOffScreen; top-down float32."""
-    import gpu
-
-    from addon.blender.viewport import DrawSettings, ViewportRenderer, draw_items
-    from addon.blender.viewport.matrices import projection_matrix
+    from addon.blender.viewport import ViewportRenderer
+    from addon.blender.viewport.offscreen import draw_camera
 
     renderer = renderer or ViewportRenderer()
-    off = gpu.types.GPUOffScreen(camera.width, camera.height, format="RGBA32F")
-    try:
-        with off.bind():
-            fb = gpu.state.active_framebuffer_get()
-            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-            draw_items(items, camera.world_to_camera, projection_matrix(camera),
-                       (camera.width, camera.height), settings or DrawSettings(), displays, renderer)
-            buf = fb.read_color(0, 0, camera.width, camera.height, 4, 0, "FLOAT")
-            buf.dimensions = camera.width * camera.height * 4
-            rgba = np.array(buf, np.float32).reshape(camera.height, camera.width, 4)[::-1]
-    finally:
-        off.free()
+    rgba = draw_camera(items, camera, settings=settings, displays=displays, renderer=renderer)
     return rgba, renderer
 
 

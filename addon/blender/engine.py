@@ -14,30 +14,12 @@ import traceback
 import bpy
 
 from ..core.errors import SplatFormatError
-from . import render_panel
+from . import render_panel, render_paths
 from .camera import camera_from_blender
 from .evaluate import collect_items
 from .render_film import (blender_depth, bottom_up, composite_over, region_camera,
                           render_region, to_scene_linear)
 from .render_stop import SigintGuard, stop_requested
-
-
-class _ReferenceRenderer:
-    """core.reference behind the offscreen renderer's interface (it keeps no state)."""
-
-    def render(self, items, camera, options):
-        from ..core import reference
-        return reference.render(items, camera, options)
-
-    def close(self):
-        pass
-
-
-def _make_renderer(kind: str, depth: bool):
-    if kind == "REFERENCE":
-        return _ReferenceRenderer()
-    from ..gl import OffscreenRenderer
-    return OffscreenRenderer(depth_pass=depth)
 
 
 class _RendererHolder:
@@ -48,15 +30,18 @@ class _RendererHolder:
         self._lock = threading.Lock()
         self._renderer = None
         self._kind = None
+        self.label = ""
 
     def get(self, kind: str, depth: bool):
-        """The renderer for kind; depth=False skips the GL depth pass (no Z pass wanted)."""
+        """(renderer for kind, whether it was made just now); depth=False skips the GL
+        depth pass (no Z pass wanted)."""
         with self._lock:
-            if self._renderer is None or self._kind != (kind, depth):
+            fresh = self._renderer is None or self._kind != (kind, depth)
+            if fresh:
                 self._close_locked()
-                self._renderer = _make_renderer(kind, depth)
+                self._renderer, self.label = render_paths.make_renderer(kind, depth)
                 self._kind = (kind, depth)
-            return self._renderer
+            return self._renderer, fresh
 
     @property
     def alive(self) -> bool:
@@ -84,9 +69,10 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
     bl_idname = "SPLATLINE"
     bl_label = "Splatline"
     bl_use_preview = False
-    # The offscreen renderer owns its own GL context on its own thread (DESIGN.md):
-    # render() needs no Blender GPU context, so a farm node without one still renders.
-    bl_use_gpu_context = False
+    # Blender's GPU context is current in render(): the Blender-GPU path draws there
+    # (render_paths.py). The moderngl path never touches it: its standalone context
+    # lives on its own thread (DESIGN.md), so the two cannot clobber each other.
+    bl_use_gpu_context = True
     bl_use_postprocess = True
 
     def render(self, depsgraph):
@@ -118,10 +104,14 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         self.update_stats("", "Splatline | gathering splats")
         items = collect_items(depsgraph)
         self._check()
-        self.update_stats("", f"Splatline | rendering {sum(i.splats.count for i in items):,} splats")
         # One setting for the whole scene, so view layers do not swap renderers mid-job.
         want_depth = any(layer.use and layer.use_pass_z for layer in scene.view_layers)
-        renderer = _HOLDER.get(settings.renderer, want_depth)
+        renderer, fresh = _HOLDER.get(settings.renderer, want_depth)
+        if fresh and want_depth and not renderer.has_depth:  # once per job, not per frame
+            self.report({"WARNING"}, f"Splatline: {_HOLDER.label} has no depth pass: "
+                                     "Depth holds the background value everywhere")
+        self.update_stats("", f"Splatline | {_HOLDER.label} | "
+                              f"{sum(i.splats.count for i in items):,} splats")
         result = self.begin_result(0, 0, region.width, region.height,
                                    layer=depsgraph.view_layer.name)
         try:

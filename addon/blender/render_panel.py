@@ -21,6 +21,7 @@ class SPLATLINE_PT_render(bpy.types.Panel):
         layout.use_property_decorate = False
         settings = context.scene.splatline.render
         layout.prop(settings, "renderer")
+        _draw_path(layout, settings.renderer)
         col = layout.column(heading="Quality")
         col.prop(settings, "antialiased")
         col.prop(settings, "opacity_aware_extent")
@@ -30,9 +31,28 @@ class SPLATLINE_PT_render(bpy.types.Panel):
         col = layout.column(heading="Sorting")
         col.prop(settings, "key_bits")
         sub = col.row()
-        sub.active = settings.renderer == "OFFSCREEN"
+        sub.active = settings.renderer in {"AUTO", "OFFSCREEN"}
         sub.prop(settings, "gpu_sort")
         layout.prop(context.scene.render, "film_transparent")
+
+
+def path_text(kind: str) -> str:
+    """What the panel says about the path: the last render's, else what will be tried."""
+    from . import render_paths
+
+    label = render_paths.last_label()
+    if label:
+        return f"Last render: {label}"
+    if kind == "AUTO" and not render_paths.moderngl_installed():
+        return "Will use: Blender GPU module (fallback: moderngl not installed)"
+    return "Path is chosen at the first render"
+
+
+def _draw_path(layout, kind: str) -> None:
+    row = layout.row()
+    row.alignment = "RIGHT"
+    text = path_text(kind)
+    row.label(text=text, icon="ERROR" if "fallback" in text else "INFO")
 
 
 classes = (SPLATLINE_PT_render,)

@@ -3,16 +3,22 @@ import bpy
 
 from ..core.scene import RenderOptions
 
+# Explicit numbers: a .blend stores the number, and OFFSCREEN/REFERENCE keep the ones
+# they had before AUTO and GPU_MODULE existed.
 RENDERERS = (
-    ("OFFSCREEN", "Offscreen GL", "moderngl offscreen renderer (GPU, or Mesa llvmpipe on CPU)"),
+    ("AUTO", "Auto", "Offscreen GL (moderngl) where it starts, else Blender's GPU module", 2),
+    ("OFFSCREEN", "moderngl", "moderngl offscreen renderer on its own OpenGL context (GPU, or "
+     "Mesa llvmpipe on CPU); fails where moderngl or its context is missing", 0),
+    ("GPU_MODULE", "Blender GPU", "The viewport's drawing code through Blender's own GPU "
+     "backend (OpenGL, Vulkan, Metal): no extra wheel or driver; no depth pass", 3),
     ("REFERENCE", "Reference",
-     "Exact float64 per-pixel CPU renderer: slow, for checking the fast one"),
+     "Exact float64 per-pixel CPU renderer: slow, for checking the fast ones", 1),
 )
 
 
 class RenderSettings(bpy.types.PropertyGroup):
     renderer: bpy.props.EnumProperty(
-        name="Renderer", items=RENDERERS, default="OFFSCREEN",
+        name="Renderer", items=RENDERERS, default="AUTO",
         description="Which implementation of the same splat semantics renders the frame")
     antialiased: bpy.props.BoolProperty(
         name="Anti-aliased", default=False,

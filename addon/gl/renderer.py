@@ -7,6 +7,7 @@ splat data and frame buffers kept on the GPU between frames.
 from __future__ import annotations
 
 import logging
+import os
 import sys
 
 from ..core.camera import Camera
@@ -16,9 +17,18 @@ from .worker import GLWorker
 log = logging.getLogger(__name__)
 
 
+BACKEND_ENV = "SPLATLINE_GL_BACKEND"
+
+
 def _create_context():
+    """A standalone context. SPLATLINE_GL_BACKEND names glcontext's backend (egl, x11,
+    ...) for users whose default one misbehaves; an unknown name fails as a missing
+    driver would, which the tests use to exercise the engine's fallback."""
     import moderngl
 
+    backend = os.environ.get(BACKEND_ENV, "").strip()
+    if backend:
+        return moderngl.create_context(standalone=True, backend=backend, require=330)
     if sys.platform.startswith("linux"):
         return moderngl.create_context(standalone=True, backend="egl", require=330)
     return moderngl.create_context(standalone=True, require=330)

@@ -1,7 +1,8 @@
 """Start Blender's GPU in background mode (bpy as a module, blender -b).
 
 The gpu module refuses to draw in background mode until Blender has created its
-GPU context; rendering one tiny frame with a RenderEngine that asks for a GPU
+GPU context. Blender 5.2+ has gpu.init() for that (used where it exists); before it,
+rendering one tiny frame with a RenderEngine that asks for a GPU
 context (bl_use_gpu_context) creates it, and it stays for the session
 (DESIGN.md, "Testing Blender for real, headless").
 """
@@ -36,6 +37,11 @@ def gpu_ready() -> bool:
 def ensure_gpu() -> None:
     """Make the gpu module usable; a no-op when it already is (UI sessions, repeat calls)."""
     if not bpy.app.background or gpu_ready():
+        return
+    import gpu
+
+    if hasattr(gpu, "init"):  # Blender 5.2+: the API for this; raises SystemError on failure
+        gpu.init()
         return
     scene = bpy.data.scenes.new("splatline_gpu_init")
     cam_data = bpy.data.cameras.new("splatline_gpu_init")

@@ -33,7 +33,7 @@ uniform int u_rest_count;        // coefficients per channel stored in Rest
 uniform mat3 u_color_linear;
 uniform vec3 u_color_offset;
 uniform bool u_antialiased;
-uniform bool u_opacity_aware;
+uniform bool u_capped_extent;   // quads cut at 3 sigma (speed), else the 1/255 contour
 
 // float bits -> uint with the same order (negative floats too), for atomicMin/Max
 uint ordered_bits(float f)
@@ -86,7 +86,7 @@ void main()
         cull(g);
         return;
     }
-    float radius = sl_quad_radius(lambda_max, opacity, u_opacity_aware);
+    float radius = sl_quad_radius(lambda_max, opacity, u_capped_extent);
     vec2 centre = sl_project_point(t, u_focal_centre, u_ortho);
     // off-frame quads are culled here so they do not widen the depth-key range
     bool off = any(lessThan(centre + radius, vec2(0.0))) || any(greaterThan(centre - radius, u_frame));

@@ -1,6 +1,9 @@
 // Offscreen renderer, stage "sort keys": depth -> fixed-point key over the visible range,
 // exactly as core/sort.py depth_keys (float64 arithmetic, truncating cast), so the GPU
 // and the CPU sorts order identically. Key 0 = farthest; culled (inf) -> the largest key.
+// Splat i goes in at position count - 1 - i, so the stable sort leaves equal keys in
+// descending index: the lower index is drawn last, in front (INRIA's and gsplat's tie
+// order; core/sort.py draw_order does the same).
 layout(local_size_x = 256) in;
 
 layout(std430, binding = 6) readonly buffer Depth { float depth_key_src[]; };
@@ -30,6 +33,7 @@ void main()
         double k = clamp((hi - double(d)) * scale, 0.0LF, double(u_top - 1u));
         key = uint(k);
     }
-    keys[i] = key;
-    vals[i] = i;
+    uint at = u_count - 1u - i;
+    keys[at] = key;
+    vals[at] = i;
 }

@@ -147,18 +147,20 @@ bool sl_conic(vec4 cov, bool antialiased, inout float opacity, out vec3 conic, o
     return sl_is_finite3(conic) && sl_is_finite(lambda_max);
 }
 
-// Quad half-extent in standard deviations: 3, or gsplat's opacity-aware
-// min(3, sqrt(2 ln(255 o))), the radius where o * exp(-r^2/2) falls to 1/255.
-float sl_extent_sigma(float opacity, bool opacity_aware)
+// Quad half-extent in standard deviations: sqrt(2 ln(255 o)), the radius where
+// o * exp(-r^2/2) falls to 1/255, so the quad holds the exact footprint (3.33 at o = 1).
+// capped (a speed setting): no more than 3, dropping the ring of alpha < 0.011 beyond.
+// Twin of core/project.py extent_sigmas.
+float sl_extent_sigma(float opacity, bool capped)
 {
-    if (!opacity_aware) return 3.0;
-    return min(3.0, sqrt(2.0 * log(max(255.0 * opacity, 1.0))));
+    float cut = sqrt(2.0 * log(max(255.0 * opacity, 1.0)));
+    return capped ? min(3.0, cut) : cut;
 }
 
 // Half-size in pixels of the screen-aligned square quad.
-float sl_quad_radius(float lambda_max, float opacity, bool opacity_aware)
+float sl_quad_radius(float lambda_max, float opacity, bool capped)
 {
-    return sl_extent_sigma(opacity, opacity_aware) * sqrt(lambda_max);
+    return sl_extent_sigma(opacity, capped) * sqrt(lambda_max);
 }
 
 // View-dependent colour before the clamp: C0*dc + bands 1..degree + 0.5.

@@ -93,7 +93,7 @@ void main()
             cull_vertex();
             return;
         }
-        extent = sl_extent_sigma(opacity, flags.z != 0);
+        extent = sl_extent_sigma(opacity, flags.z != 0);  // flags.z: capped extent
         radius = extent * sqrt(lambda_max);
     }
     vec2 centre = sl_project_point(t, focal_centre, ortho);

@@ -75,7 +75,7 @@ def _jacobian(cam, t):
     return np.array([[fx / z, 0, -fx * tx / z], [0, fy / z, -fy * ty / z]], LD), u, v
 
 
-def splat_alpha(cam, pos, scale, quat=(1, 0, 0, 0), opacity=0.9, world=None, aware=True):
+def splat_alpha(cam, pos, scale, quat=(1, 0, 0, 0), opacity=0.9, world=None, capped=False):
     """(alpha image, depth), or (None, depth) for a culled splat."""
     world = np.eye(4) if world is None else world
     lin, t = _camera_point(cam, world, pos)
@@ -88,7 +88,8 @@ def splat_alpha(cam, pos, scale, quat=(1, 0, 0, 0), opacity=0.9, world=None, awa
     det = a * c - b * b
     mid = (a + c) / 2
     lam = LD(mid) + np.sqrt(max(LD(0.1), LD(mid * mid - det)))
-    extent = min(3.0, np.sqrt(2 * np.log(255 * float(opacity)))) if aware else 3.0
+    extent = np.sqrt(2 * np.log(255 * float(opacity)))  # alpha = 1/255: the exact footprint
+    extent = min(3.0, extent) if capped else extent
     radius = extent * np.sqrt(lam)
     ys, xs = np.mgrid[0:cam.height, 0:cam.width].astype(LD) + LD(0.5)
     dx, dy = xs - u, ys - v
@@ -114,19 +115,20 @@ def splat_rgb(cam, item, i):
     return np.maximum(cm[:, :3] @ rgb + cm[:, 3], 0.0)
 
 
-def render_oracle(items, cam, aware=True):
-    """Premultiplied RGBA (long double): back to front, C = alpha c + (1 - alpha) C."""
+def render_oracle(items, cam, capped=False):
+    """Premultiplied RGBA (long double): back to front, C = alpha c + (1 - alpha) C;
+    equal depths: the lower global index in front (drawn last)."""
     layers = []
     for item in items:
         sp = item.splats
         for i in range(sp.count):
             o = float(sp.opacities[i]) * item.opacity_scale
             alpha, depth = splat_alpha(cam, sp.positions[i], sp.scales[i] * item.splat_scale,
-                                       sp.rotations[i], o, item.world, aware)
+                                       sp.rotations[i], o, item.world, capped)
             if alpha is not None:
-                layers.append((depth, alpha, splat_rgb(cam, item, i)))
+                layers.append((depth, len(layers), alpha, splat_rgb(cam, item, i)))
     out = np.zeros((cam.height, cam.width, 4), LD)
-    for _, alpha, rgb in sorted(layers, key=lambda layer: -layer[0]):
+    for _, _, alpha, rgb in sorted(layers, key=lambda layer: (-layer[0], -layer[1])):
         out[..., :3] = alpha[..., None] * np.asarray(rgb, LD) + (1 - alpha[..., None]) * out[..., :3]
         out[..., 3] = alpha + (1 - alpha) * out[..., 3]
     return out

@@ -24,7 +24,7 @@ def fallback():
 
 @pytest.mark.parametrize("options", [
     RenderOptions(), RenderOptions(antialiased=True), RenderOptions(key_bits=16),
-    RenderOptions(opacity_aware_extent=False, background=(0.2, 0.1, 0.0, 0.3)),
+    RenderOptions(capped_extent=True, background=(0.2, 0.1, 0.0, 0.3)),
 ], ids=["default", "aa", "16bit", "3sigma-bg"])
 def test_fallback_against_reference(fallback, options):
     items = two_objects()

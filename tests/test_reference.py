@@ -36,25 +36,26 @@ def axis_camera(size=33, f=40.0, ortho=False, w2c=None) -> Camera:
     return Camera(np.eye(4) if w2c is None else w2c, size, size, f, f, c, c, 0.1, 100.0, ortho)
 
 
-def gaussian_image(cam, u, v, var, opacity, aware=True):
+def gaussian_image(cam, u, v, var, opacity, capped=False):
     """Expected alpha of one isotropic screen Gaussian with variance var (incl. low-pass)."""
     ys, xs = np.mgrid[0:cam.height, 0:cam.width] + 0.5
     r2 = (xs - u) ** 2 + (ys - v) ** 2
     alpha = np.minimum(0.99, opacity * np.exp(-0.5 * r2 / var))
-    extent = min(3.0, np.sqrt(2 * np.log(255 * opacity))) if aware else 3.0
+    extent = np.sqrt(2 * np.log(255 * opacity))  # the 1/255 contour
+    extent = min(3.0, extent) if capped else extent
     radius = extent * np.sqrt(var + np.sqrt(0.1))  # INRIA: mid + sqrt(max(0.1, mid^2 - det))
     inside = (np.abs(xs - u) <= radius) & (np.abs(ys - v) <= radius) & (alpha >= 1 / 255)
     return np.where(inside, alpha, 0.0)
 
 
 @pytest.mark.parametrize("opacity", [0.3, 0.8, 1.0])
-@pytest.mark.parametrize("aware", [True, False])
-def test_isotropic_splat_peak_and_falloff(opacity, aware):
+@pytest.mark.parametrize("capped", [False, True])
+def test_isotropic_splat_peak_and_falloff(opacity, capped):
     cam, d, s = axis_camera(), 2.0, 0.05
     item = RenderItem(splats([0, 0, -d], s, opacity, rgb=(0.2, 0.6, 1.0)))
-    out = render([item], cam, RenderOptions(opacity_aware_extent=aware))
+    out = render([item], cam, RenderOptions(capped_extent=capped))
     var = (cam.fx * s / d) ** 2 + 0.3
-    expect = gaussian_image(cam, 16.5, 16.5, var, opacity, aware)
+    expect = gaussian_image(cam, 16.5, 16.5, var, opacity, capped)
     assert out.rgba[16, 16, 3] == pytest.approx(min(0.99, opacity), abs=TOL)
     np.testing.assert_allclose(out.rgba[..., 3], expect, atol=TOL)
     np.testing.assert_allclose(out.rgba[..., :3], expect[..., None] * [0.2, 0.6, 1.0], atol=TOL)

@@ -34,16 +34,16 @@ def _camera_for(items, size, distance=2.2):
     return simple_camera(size, size, 50.0, look_at(eye, centre))
 
 
-@pytest.mark.parametrize("aware", [True, False])
-def test_test64_degree3_two_objects(testdata, aware):
+@pytest.mark.parametrize("capped", [False, True])
+def test_test64_degree3_two_objects(testdata, capped):
     sp = formats.read(testdata / "test64.ply")
     assert sp.sh_degree == 3
     items = [RenderItem(sp, world=_placed(sp, 30, (0, 0, 0))),
              RenderItem(sp, world=_placed(sp, -70, (0.05, 0.02, 0.0)), opacity_scale=0.8,
                         splat_scale=1.3)]
     cam = _camera_for(items, 40)
-    out = render(items, cam, RenderOptions(opacity_aware_extent=aware))
-    expect = render_oracle(items, cam, aware)
+    out = render(items, cam, RenderOptions(capped_extent=capped))
+    expect = render_oracle(items, cam, capped)
     assert (expect[..., 3] > 0.05).sum() > 100  # real content
     np.testing.assert_allclose(out.rgba, expect.astype(np.float64), atol=TOL)
 

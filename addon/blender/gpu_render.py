@@ -43,7 +43,7 @@ class GpuModuleRenderer:
     def render(self, items, camera, options) -> RenderOutput:
         settings = DrawSettings(sync_sort=True, linear_output=False,
                                 antialiased=options.antialiased,
-                                opacity_aware_extent=options.opacity_aware_extent)
+                                capped_extent=options.capped_extent)
         # No frustum dilation tuning, no viewport display overrides: the splats as they are.
         display = ItemDisplay(max_sh_degree=MAX_SH_DEGREE, key_bits=options.key_bits)
         rgba = draw_camera(items, camera, settings=settings, displays=[display] * len(items),

@@ -82,7 +82,7 @@ class SPLATLINE_OT_render_preset_add(AddPresetBase, bpy.types.Operator):
         "scene.render.ffmpeg.ffmpeg_prores_profile", "scene.render.ffmpeg.constant_rate_factor",
         "scene.render.ffmpeg.ffmpeg_preset", "scene.render.ffmpeg.audio_codec",
         "scene.splatline.render.key_bits", "scene.splatline.render.antialiased",
-        "scene.splatline.render.opacity_aware_extent",
+        "scene.splatline.render.capped_extent",
     ]
 
     def execute(self, context):

@@ -24,7 +24,7 @@ class SPLATLINE_PT_render(bpy.types.Panel):
         _draw_path(layout, settings.renderer)
         col = layout.column(heading="Quality")
         col.prop(settings, "antialiased")
-        col.prop(settings, "opacity_aware_extent")
+        col.prop(settings, "capped_extent")
         # Quad rasterizers cannot stop a pixel early; only the reference renderer can.
         if settings.renderer == "REFERENCE":
             col.prop(settings, "early_termination")

@@ -15,7 +15,10 @@ Conventions and the choices the renderers must agree on:
 - Culled (valid = False): centre depth <= near or > far, opacity < 1/255 (no
   pixel could reach the 1/255 cut), zero/NaN quaternion, det <= 0, and any
   non-finite value in the inputs or results.
-- Extent (in sigmas): 3, or min(3, sqrt(2 ln(255 o))) when opacity-aware.
+- Extent (in sigmas): sqrt(2 ln(255 o)), the alpha = 1/255 contour (3.33 at
+  o = 1; alpha = min(0.99, ...) does not move it, 0.99 > 1/255), so the quad
+  holds the exact footprint. capped_extent (a speed setting of the fast
+  paths) cuts it at 3 sigma: min(3, sqrt(2 ln(255 o))).
   `radius` = extent * sqrt(lambda_max) in pixels (not rounded) is the half-size
   of the screen-aligned square quad the splat covers.
 - Zero quaternions are culled, like NaN ones (not treated as the identity).
@@ -146,18 +149,19 @@ def _covariance_2d(g: np.ndarray, s: np.ndarray):
     return a, b, c, det
 
 
-def extent_sigmas(opacity: np.ndarray, opacity_aware: bool) -> np.ndarray:
-    """Half-extent in sigmas: 3, or where alpha falls to 1/255 if that is nearer."""
-    three = np.full(opacity.shape, 3.0)
-    if not opacity_aware:
-        return three
+CAP_SIGMAS = 3.0  # the capped extent: INRIA's tile bound, a speed setting here
+
+
+def extent_sigmas(opacity: np.ndarray, capped: bool = False) -> np.ndarray:
+    """Half-extent in sigmas: where alpha falls to 1/255 (the exact footprint), or,
+    capped, no farther than 3 sigma (drops the ring of alpha < 0.011 beyond)."""
     with np.errstate(all="ignore"):
         cut = np.sqrt(np.maximum(2.0 * np.log(255.0 * opacity), 0.0))
-    return np.minimum(three, cut)
+    return np.minimum(CAP_SIGMAS, cut) if capped else cut
 
 
 def project(item: RenderItem, camera: Camera, antialiased: bool = False,
-            opacity_aware_extent: bool = True) -> Projected:
+            capped_extent: bool = False) -> Projected:
     """Project one item's splats for `camera` (float64, per DESIGN.md)."""
     sp = item.splats
     with np.errstate(all="ignore"):
@@ -176,7 +180,7 @@ def project(item: RenderItem, camera: Camera, antialiased: bool = False,
         opacity = sp.opacities.astype(np.float64) * float(item.opacity_scale)
         if antialiased:
             opacity = opacity * np.sqrt(np.maximum(det0 / det, 0.0))
-        extent = extent_sigmas(opacity, opacity_aware_extent)
+        extent = extent_sigmas(opacity, capped_extent)
         # lambda_max = mid + sqrt(max(0.1, mid^2 - det)); mid^2 - det written without cancellation
         lam = 0.5 * (a + c) + np.sqrt(np.maximum(0.1, 0.25 * (a - c) ** 2 + b * b))
         radius = extent * np.sqrt(lam)

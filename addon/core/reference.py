@@ -2,16 +2,19 @@
 other renderer (semantics in ../../../shared/DESIGN.md, projection in project.py).
 
 - Order: one global order over every item's splats by the view depth of the
-  centre. Ties keep item order then splat order, the later one in front.
+  centre. Exact ties: the lower global index (item order, then splat order) is
+  in front, as INRIA's and gsplat's stable front-to-back key sorts give.
 - Pixels: pixel (i, j) is sampled at its centre (i + 0.5, j + 0.5), with u, v
   measured from the top-left corner of the frame. This is INRIA's convention:
   its ndc2Pix maps the frame to [-0.5, W - 0.5] and samples at integer pixel
   coordinates, i.e. our centres shifted by half a pixel.
 - A splat touches the pixels whose centres lie in its screen-aligned square
   quad, |u_pixel - u| <= radius and |v_pixel - v| <= radius (radius from
-  project.py, a float: what a quad rasterizer covers; INRIA's tiles cover at
-  least that). There alpha = min(0.99, o exp(-d^T conic d / 2)), and alpha <
-  1/255 is dropped.
+  project.py, a float: what a quad rasterizer covers). There alpha =
+  min(0.99, o exp(-d^T conic d / 2)) (0.99 is INRIA's cap), and alpha < 1/255
+  is dropped. The quad reaches the 1/255 contour, so the footprint is exact:
+  every pixel centre with alpha >= 1/255 and no other. options.capped_extent
+  cuts the quad at 3 sigma, as the fast paths do when asked to for speed.
 - Compositing runs front to back: C += T alpha c, T *= (1 - alpha), film
   alpha = 1 - T. Without early termination this equals back-to-front
   premultiplied "over" (C = alpha c + (1 - alpha) C) up to float64 rounding;
@@ -66,15 +69,15 @@ def _gather(items, camera, options) -> dict:
     fields = ("means2d", "conic", "opacity", "rgb", "depth", "radius")
     parts = {f: [] for f in fields}
     for item in items:
-        p = project(item, camera, options.antialiased, options.opacity_aware_extent)
+        p = project(item, camera, options.antialiased, options.capped_extent)
         for f in fields:
             parts[f].append(getattr(p, f)[p.valid])
     if not items:
         parts = {f: [np.zeros((0, 2) if f == "means2d" else (0, 3) if f in ("conic", "rgb")
                               else (0,))] for f in fields}
     s = {f: np.concatenate(v) for f, v in parts.items()}
-    back_to_front = np.argsort(-s["depth"], kind="stable")
-    s = {f: v[back_to_front[::-1]] for f, v in s.items()}
+    front_to_back = np.argsort(s["depth"], kind="stable")  # ties: lower index first
+    s = {f: v[front_to_back] for f, v in s.items()}
     u, v, r = s["means2d"][:, 0], s["means2d"][:, 1], s["radius"]
     # pixel i is inside when |i + 0.5 - u| <= r; clip in float before the int cast
     box = np.stack([np.ceil(u - r - 0.5), np.floor(u + r - 0.5),

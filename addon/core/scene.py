@@ -43,7 +43,7 @@ class RenderItem:
 class RenderOptions:
     antialiased: bool = False          # gsplat's opacity compensation for the 0.3 px^2 low-pass
     early_termination: bool = False    # stop a pixel at transmittance < 1e-4 (INRIA tile rasterizer)
-    opacity_aware_extent: bool = True  # quad half-extent min(3, sqrt(2 ln(255 o))) sigma, else 3 sigma
+    capped_extent: bool = False        # quads at min(3, sqrt(2 ln(255 o))) sigma, not the 1/255 contour: faster
     key_bits: int = 32                 # 16 or 32-bit depth sort keys
     gpu_sort: bool = True              # offscreen renderer: compute-shader sort when GL >= 4.3
     background: tuple = (0.0, 0.0, 0.0, 0.0)  # premultiplied sRGB RGBA behind the splats

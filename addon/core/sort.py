@@ -4,6 +4,10 @@ Keys are quantized over the depth range of the splats actually in view, not a
 fixed range, so 16 bits stay useful for a capture 1 m deep seen from 1 km away.
 numpy's stable argsort is a radix sort on uint16 keys only; 32-bit keys take two
 16-bit passes (radix_argsort), 4x faster than its timsort on 1M depth keys.
+
+Equal keys: the lower index is in front (drawn last), as INRIA's and gsplat's stable
+front-to-back key sorts give. A stable far-to-near sort gives the opposite, so the
+orders here sort the reversed key array (draw_order).
 """
 from __future__ import annotations
 
@@ -38,11 +42,18 @@ def depth_keys(depth: np.ndarray, bits: int = 32, visible: np.ndarray | None = N
 def back_to_front(depth: np.ndarray, bits: int = 32, visible: np.ndarray | None = None) -> np.ndarray:
     """Indices of the visible splats with finite depths, farthest first (stable within a key)."""
     keys = depth_keys(depth, bits, visible)
-    order = radix_argsort(keys)
+    order = draw_order(keys)
     keep = np.isfinite(np.asarray(depth))
     if visible is not None:
         keep &= visible
     return order[keep[order]].astype(np.uint32)
+
+
+def draw_order(keys: np.ndarray) -> np.ndarray:
+    """Indices by ascending key (key 0 = farthest), equal keys in descending index,
+    so the lower index is drawn last, in front. Stable-sorting the reversed keys
+    does it with no extra key bits: position p there is index n - 1 - p."""
+    return (keys.size - 1) - radix_argsort(keys[::-1])
 
 
 def radix_argsort(keys: np.ndarray) -> np.ndarray:
@@ -67,7 +78,7 @@ def far_to_near(depth: np.ndarray, bits: int = 16) -> np.ndarray:
 
     The fast path for callers that already culled: no mask, float32 arithmetic for
     16-bit keys (24-bit mantissa > 16 key bits), float64 for 32-bit keys.
-    Ties keep the input order, so a later entry is drawn over an earlier one.
+    Ties: the earlier entry is drawn over the later one (draw_order).
     """
     if bits not in (16, 32):
         raise ValueError(f"key bits must be 16 or 32, not {bits}")
@@ -85,4 +96,4 @@ def far_to_near(depth: np.ndarray, bits: int = 16) -> np.ndarray:
     k *= ftype(scale)
     if bits == 32:  # float32 rounding stays below top (16 bits); float64 may not, clip
         np.clip(k, 0, top - 1, out=k)
-    return radix_argsort(k.astype(np.uint16 if bits == 16 else np.uint32))
+    return draw_order(k.astype(np.uint16 if bits == 16 else np.uint32))

@@ -21,7 +21,7 @@ def cpu_records(items, camera, options) -> tuple[np.ndarray, int]:
     """(3, V, 4) float32 records of the visible splats, back to front, and V."""
     recs, depths = [], []
     for item in items:
-        p = project(item, camera, options.antialiased, options.opacity_aware_extent)
+        p = project(item, camera, options.antialiased, options.capped_extent)
         u, v, r = p.means2d[:, 0], p.means2d[:, 1], p.radius
         with np.errstate(invalid="ignore"):
             on = p.valid & (u + r >= 0) & (u - r <= camera.width) & (v + r >= 0) & (v - r <= camera.height)

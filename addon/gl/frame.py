@@ -81,7 +81,7 @@ class FrameState:
         for name, value in camera_uniforms(camera).items():
             set_uniform(cs, name, value)
         set_uniform(cs, "u_antialiased", bool(options.antialiased))
-        set_uniform(cs, "u_opacity_aware", bool(options.opacity_aware_extent))
+        set_uniform(cs, "u_capped_extent", bool(options.capped_extent))
         base = 0
         anchor = depth_origin(items[0], camera) if items else 0.0
         for item, obj in zip(items, objects):

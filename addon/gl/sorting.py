@@ -4,8 +4,8 @@ Keys are core/sort.py's: depth quantised over the visible range to 16 or 32 bits
 key 0 = farthest. The GPU path computes them in a compute shader (float64, like numpy)
 and runs a stable LSD radix sort, 8 bits per pass (2 passes for 16-bit keys, 4 for
 32-bit). The CPU path reads the depths back and uses core.sort.back_to_front (numpy's
-stable argsort). Both break ties by global index, so with the same keys they give the
-same order.
+stable argsort). Both put the lower global index in front on equal keys (both sort
+the reversed sequence stably), so with the same keys they give the same order.
 """
 from __future__ import annotations
 

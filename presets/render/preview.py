@@ -1,4 +1,4 @@
-# Preview: half resolution, 16-bit sort keys, PNG; fast look-dev turnarounds.
+# Preview: half resolution, 16-bit sort keys, quads capped at 3 sigma, PNG; fast look-dev turnarounds.
 import bpy
 scene = bpy.context.scene
 scene.render.resolution_percentage = 50
@@ -9,5 +9,5 @@ image.color_mode = 'RGBA'
 image.color_depth = '8'
 settings = scene.splatline.render
 settings.key_bits = '16'
-settings.opacity_aware_extent = True
+settings.capped_extent = True
 settings.antialiased = False

@@ -26,7 +26,7 @@ def create_shader():
     for name in ("focal_centre", "jac_bounds", "frame", "proj_z", "misc"):
         info.push_constant("VEC4", name)
     info.push_constant("IVEC4", "sizes")  # texture width, sh texels per splat, 0, 0
-    info.push_constant("IVEC4", "flags")  # ortho, antialiased, opacity-aware extent, linear out
+    info.push_constant("IVEC4", "flags")  # ortho, antialiased, capped extent, linear out
     for slot, name in enumerate(("pos_tex", "shape_tex", "sh_tex", "order_tex", "object_tex")):
         info.sampler(slot, "FLOAT_2D", name)
     info.vertex_in(0, "VEC2", "corner")
@@ -137,7 +137,7 @@ def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: 
 
 
 def view_constants(projection: np.ndarray, width: int, height: int, *, antialiased=False,
-                   opacity_aware=True, linear_output=False, point_size=2.0) -> dict:
+                   capped_extent=False, linear_output=False, point_size=2.0) -> dict:
     """Push constants from an OpenGL projection matrix and the viewport size in pixels."""
     p = np.asarray(projection, np.float64)
     ortho = abs(p[3, 3] - 1.0) < 1e-9 and abs(p[3, 2]) < 1e-12
@@ -159,5 +159,5 @@ def view_constants(projection: np.ndarray, width: int, height: int, *, antialias
         "frame": (float(width), float(height), float(near), float(far)),
         "proj_z": (p[2, 2], p[2, 3], p[3, 2], p[3, 3]),
         "misc": (float(point_size), 0.0, 0.0, 0.0),
-        "flags": (int(ortho), int(antialiased), int(opacity_aware), int(linear_output)),
+        "flags": (int(ortho), int(antialiased), int(capped_extent), int(linear_output)),
     }

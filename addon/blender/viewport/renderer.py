@@ -41,7 +41,7 @@ class DrawSettings:
     sync_sort: bool = True       # False: sort on the worker thread, draw the last order
     linear_output: bool = False  # convert the sRGB splat colours to scene-linear
     antialiased: bool = False
-    opacity_aware_extent: bool = True
+    capped_extent: bool = False  # quads cut at 3 sigma (faster), not at the 1/255 contour
     point_size: float = 2.0      # half-size in pixels of a point-cloud-mode dot
 
 
@@ -260,7 +260,7 @@ class ViewportRenderer:
             self.gpu = SplatGPU()
         width, height = int(viewport_size[0]), int(viewport_size[1])
         const = view_constants(projection_matrix, width, height, antialiased=settings.antialiased,
-                               opacity_aware=settings.opacity_aware_extent,
+                               capped_extent=settings.capped_extent,
                                linear_output=settings.linear_output, point_size=settings.point_size)
         view = np.asarray(view_matrix, np.float64)
         l2c = [view @ np.asarray(i.world, np.float64) for i in items]

@@ -23,7 +23,7 @@ class SortInput:
     cull: bool = True
     dilation: float = 0.2        # frustum grown by this fraction of its half-size
     radius_scale: float = 1.0    # splat scale multipliers applied to the radii
-    radius: np.ndarray | None = None  # (N,) float32 bounding radius, 3 sigma of the largest scale
+    radius: np.ndarray | None = None  # (N,) float32 bounding radius (bounding_radius)
 
     @staticmethod
     def of(positions: np.ndarray, local_to_camera, cull: bool = True, dilation: float = 0.2,
@@ -37,12 +37,18 @@ def centres_layout(positions: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(positions, np.float32).T)
 
 
+# The exact footprint reaches sqrt(2 ln(255 o)) sigma: 3.33 at o = 1, 3.96 at the Look's
+# largest opacity multiplier (10). Culling must not drop a splat whose faint ring shows.
+FOOTPRINT_SIGMAS = 4.0
+
+
 def bounding_radius(scales: np.ndarray) -> np.ndarray:
-    """(N,) float32: 3 sigma of each splat's largest axis (NaN/inf stay: shader culls)."""
+    """(N,) float32: the footprint bound (FOOTPRINT_SIGMAS) of each splat's largest
+    axis (NaN/inf stay: the shader culls them)."""
     s = np.asarray(scales, np.float32)
     r = np.maximum(s[:, 0], s[:, 1])
     np.maximum(r, s[:, 2], out=r)
-    r *= np.float32(3.0)
+    r *= np.float32(FOOTPRINT_SIGMAS)
     return r
 
 
@@ -97,7 +103,7 @@ def _keep(part: SortInput, projection, near, far):
     """(depths, indices or None for all, whether the frustum test removed any) of one
     object's splats that survive culling.
 
-    Culling is conservative: a splat goes only when its bounding sphere (3 sigma of
+    Culling is conservative: a splat goes only when its bounding sphere (4 sigma of
     its largest axis) lies wholly outside the grown frustum, so a large splat whose
     centre is off-screen but whose body covers the view is kept; culled splats would
     have drawn nothing. It is skipped when a sample says it would remove too few to

@@ -50,17 +50,22 @@ def frame_range(camera, frames=None) -> tuple[int, int]:
 
 
 def add_camera(bpy, objects, camera, frames=None) -> None:
-    """Key `camera` (a mode or a CameraTrack) on the scene, framing `objects`."""
+    """Key `camera` (a mode or a CameraTrack) on the scene, framing `objects` (splat
+    objects; a track is tied to the first one's frame). frames: (start, end) or None."""
     from ..blender import capture_camera
 
     scene = bpy.context.scene
-    if isinstance(camera, str):
-        capture_camera.add_framing_camera(bpy.context, objects, camera, *frame_range(camera, frames))
+    if isinstance(camera, str):  # an orbit turns once over the range it is given, or the scene's
+        start, end = frames or (scene.frame_start, scene.frame_end)
+        capture_camera.add_framing_camera(bpy.context, objects, camera, start, end)
         return
     fps = camera.frame_rate  # Blender keeps an integer rate and a divisor
     scene.render.fps = max(1, round(fps))
     scene.render.fps_base = scene.render.fps / fps
-    capture_camera.add_track_camera(bpy.context, camera, objects[0] if objects else None, 1)
+    if frames is None:  # the scene plays the whole track
+        scene.frame_end = scene.frame_start + camera.last_frame
+    capture_camera.add_track_camera(bpy.context, camera, objects[0] if objects else None,
+                                    scene.frame_start)
 
 
 def build(bpy, path, camera, frames=None):

@@ -80,6 +80,7 @@ def add_track_camera(context, track: camtrack.CameraTrack, reference=None, frame
     object (its matrix_world, axis rotation included); without one, to an unmoved RDF
     capture. Key k lands on frame frame_offset + k (default: the scene's start frame)."""
     scene = context.scene
+    context.view_layer.update()  # the reference's matrix_world, if it was just imported or moved
     capture_to_world = _capture_to_world(reference)
     poses = camtrack.blender_poses(track, capture_to_world)
     offset = scene.frame_start if frame_offset is None else frame_offset

@@ -20,6 +20,7 @@ A second Ctrl+C stops at once.
 """
 from __future__ import annotations
 
+import errno
 import os
 import re
 import signal
@@ -233,6 +234,7 @@ def _check_args(args) -> None:
         raise UserError(f"{args.blend}: no such {kind}")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise UserError(f"--out {args.out}: exists and is not a folder")
+    _check_out_creatable(args.out)
     if args.frames:
         parse_frames(args.frames)
     if args.resolution:
@@ -241,6 +243,16 @@ def _check_args(args) -> None:
         raise UserError(f"--step {args.step}: must be at least 1")
     if args.camera is not None and is_blend(args.blend):
         raise UserError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
+
+
+def _check_out_creatable(out) -> None:
+    """The folder is made only once the input is known good (nothing half-made on bad input),
+    so a path under a file is refused here, as os.makedirs would refuse it."""
+    parent = os.path.abspath(out)
+    while not os.path.exists(parent) and os.path.dirname(parent) != parent:
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), out)
 
 
 def _open_scene(args):

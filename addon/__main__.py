@@ -17,7 +17,7 @@ COMMANDS = {
     "info": "print a splat file's count, SH degree, format and bounds",
     "convert": "convert a splat file to another format",
     "import": "import splat files into a new .blend",
-    "render": "render a .blend with the Splatline engine",
+    "render": "render a .blend, or a bare capture under an added camera, with the Splatline engine",
     "demo": "build, animate and render the demo scene",
 }
 

@@ -8,6 +8,7 @@ import importlib
 _MODULES = (
     "properties",     # Object.splatline and Scene.splatline property groups
     "io_ops",         # import/export operators, menus, FileHandler
+    "camera_track_ops",  # File > Import > Splat Camera Track
     "sequence_ops",   # splat sequence import, bake
     "effect_ops",     # effect stack operators
     "viewport",       # SpaceView3D draw handler

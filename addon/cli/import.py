@@ -1,5 +1,8 @@
 """python -m addon import FILE... --blend OUT.blend: splat files into a new .blend.
 
+A camera framing the imported captures (--camera, default an orbit over the scene's frame
+range) is added, as the scene has none, so `render OUT.blend` works on the result.
+
 Every file is read before anything is saved; the first bad file stops the command with
 one line naming it, and no .blend is written.
 """
@@ -10,6 +13,7 @@ import os
 from ..core.errors import SplatFormatError
 from . import UserError
 from ..core.splats import AXES
+from .capture_scene import CAMERA_HELP
 
 
 def configure(parser):
@@ -32,6 +36,7 @@ def configure(parser):
                         help="apply an effect preset (presets/effects/) to every imported object, "
                              "keyed from the scene's start frame (repeatable); 'morph' needs two "
                              "files and morphs the first into the second")
+    parser.add_argument("--camera", metavar="orbit|front|TRACK.json", help=CAMERA_HELP)
 
 
 def _check_args(args) -> None:
@@ -48,6 +53,8 @@ def _check_args(args) -> None:
 
 def run(args) -> int:
     _check_args(args)
+    from .capture_scene import add_camera, load_camera_arg
+    camera = load_camera_arg(args.camera)  # a bad track fails before any import
     from .blender_session import start
 
     bpy = start()
@@ -67,6 +74,11 @@ def run(args) -> int:
         print(f"{path}: {len(obj.data.points)} of {report.count_in_file} splats, "
               f"SH degree {report.sh_degree_in_file} -> {_degree(obj)}{extra}")
     _apply_effect_presets(bpy, args.effect_preset, imported)
+    if bpy.context.scene.camera is None:
+        try:
+            add_camera(bpy, imported, camera)
+        except ValueError as exc:
+            raise UserError(f"{args.files[0]}: cannot frame the capture: {exc}") from None
     try:
         result = bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.blend))
     except RuntimeError as exc:  # Blender reports a failed save as an error report

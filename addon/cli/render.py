@@ -1,5 +1,9 @@
 """python -m addon render SCENE.blend --out DIR: render a .blend with the Splatline engine.
 
+`render CAPTURE --out DIR [--camera orbit|front|TRACK.json]` renders a bare splat file: it
+is imported as the UI imports it, a camera is added (capture_scene.py), and the scene is
+rendered by the same code as a .blend. Its output defaults to RGBA PNG, its film is transparent.
+
 Renders through Blender's own animation pipeline (what `blender -b -a` runs), so frame
 step, border, resolution percentage and every output format behave as in Blender.
 Progress and the time of each frame come from Blender's render handlers.
@@ -16,6 +20,7 @@ A second Ctrl+C stops at once.
 """
 from __future__ import annotations
 
+import errno
 import os
 import re
 import signal
@@ -23,6 +28,7 @@ import statistics
 import time
 
 from . import UserError
+from .capture_scene import CAMERA_HELP, is_blend
 
 FORMATS = ("EXR", "PNG", "MP4")
 _BOOL = {"1": True, "true": True, "on": True, "yes": True,
@@ -36,7 +42,11 @@ UNREPRODUCIBLE_STAMPS = ("use_stamp_date", "use_stamp_render_time", "use_stamp_f
 
 
 def configure(parser):
-    parser.add_argument("blend", metavar="SCENE.blend", help="the .blend to render")
+    parser.add_argument("blend", metavar="SCENE.blend|CAPTURE",
+                        help="the .blend to render, or a splat file (.ply, .spz, .splat, ...) to "
+                             "import and render under an added camera")
+    parser.add_argument("--camera", metavar="orbit|front|TRACK.json",
+                        help="for a CAPTURE: " + CAMERA_HELP)
     parser.add_argument("--out", required=True, metavar="DIR", help="folder for the frames or the movie")
     parser.add_argument("--frames", metavar="A-B", help="frame range (or one frame); default: the scene's")
     parser.add_argument("--step", type=int, metavar="N", help="render every Nth frame; default: the scene's")
@@ -220,26 +230,54 @@ def _apply_preset(name: str) -> None:
 def _check_args(args) -> None:
     """What can be checked without starting Blender (fast one-line errors)."""
     if not os.path.isfile(args.blend):
-        raise UserError(f"{args.blend}: no such .blend file")
+        kind = ".blend file" if args.blend.lower().endswith(".blend") else "file"
+        raise UserError(f"{args.blend}: no such {kind}")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise UserError(f"--out {args.out}: exists and is not a folder")
+    _check_out_creatable(args.out)
     if args.frames:
         parse_frames(args.frames)
     if args.resolution:
         parse_resolution(args.resolution)
     if args.step is not None and args.step < 1:
         raise UserError(f"--step {args.step}: must be at least 1")
+    if args.camera is not None and is_blend(args.blend):
+        raise UserError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
+
+
+def _check_out_creatable(out) -> None:
+    """The folder is made only once the input is known good (nothing half-made on bad input),
+    so a path under a file is refused here, as os.makedirs would refuse it."""
+    parent = os.path.abspath(out)
+    while not os.path.exists(parent) and os.path.dirname(parent) != parent:
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), out)
+
+
+def _open_scene(args):
+    """bpy with the scene to render: the .blend, or a bare capture with a camera added
+    (the track is read before Blender starts, so a bad one costs no import)."""
+    from . import blender_session
+    if not is_blend(args.blend):
+        from . import capture_scene
+        camera = capture_scene.load_camera_arg(args.camera)
+        bpy = blender_session.start()
+        frames = parse_frames(args.frames) if args.frames else None
+        capture_scene.build(bpy, args.blend, camera, frames)
+        if not args.format and not args.preset:
+            args.format = "PNG"  # the factory scene's output would be an opaque 8-bit RGB
+        return bpy
+    try:
+        return blender_session.start(os.path.abspath(args.blend))
+    except RuntimeError as exc:
+        raise UserError(f"{args.blend}: cannot open: {str(exc).strip()}") from None
 
 
 def run(args) -> int:
     _check_args(args)
-    blend = os.path.abspath(args.blend)
-    os.makedirs(args.out, exist_ok=True)
-    from . import blender_session
-    try:
-        bpy = blender_session.start(blend)
-    except RuntimeError as exc:
-        raise UserError(f"{args.blend}: cannot open: {str(exc).strip()}") from None
+    bpy = _open_scene(args)
+    os.makedirs(args.out, exist_ok=True)  # after the input is known good: nothing half-made
     from ..blender import render_stop
     scene = _prepare(bpy, args)
     total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))

@@ -19,46 +19,75 @@ def nearest_1d(values: np.ndarray, codebook: np.ndarray) -> np.ndarray:
     return np.searchsorted(mids, values, side="left").astype(np.uint8 if len(codebook) <= 256 else np.int64)
 
 
-def codebook_1d(values: np.ndarray, k: int = 256, iterations: int = 30) -> np.ndarray:
-    """k ascending float32 values minimising the squared error of `values` (finite ones):
-    Lloyd's algorithm on sorted data, where a cluster is a contiguous run, so an iteration
-    costs k binary searches over prefix sums instead of a pass over the data.
+def codebook_1d(values: np.ndarray, k: int = 256, alpha: float = 0.5) -> np.ndarray:
+    """k ascending float32 values for `values` (finite ones), as splat-transform builds its
+    SOG codebooks (quantize-1d-core.ts): a 1024-bin histogram whose bin edges blend quantile
+    and uniform positions, each bin weighted count^alpha (sub-linear, so sparse tails such
+    as the largest scales still earn entries), then the optimal k-partition of the bins by
+    dynamic programming over prefix sums. Lloyd iterations on the values instead got stuck
+    with 10x splat-transform's worst error on guitar's scales.
 
-    Seeded on a blend of quantiles and an even spread over the range: pure quantiles leave
-    the sparse tails (large scales, bright colours) one coarse entry between them."""
+    Fewer distinct values than k: each gets its own entry (lossless)."""
     v = np.sort(np.asarray(values, np.float64).ravel())
     v = v[np.isfinite(v)]
     if v.size == 0:
         return np.zeros(k, np.float32)
     uniq = np.unique(v)
-    if len(uniq) <= k:  # every value gets its own entry: lossless
-        return np.concatenate([uniq, np.repeat(uniq[-1:], k - len(uniq))]).astype(np.float32)
-    prefix = np.concatenate([[0.0], np.cumsum(v)])
-    t = (np.arange(k) + 0.5) / k
-    c = np.unique(0.5 * np.quantile(v, t) + 0.5 * (v[0] + t * (v[-1] - v[0])))
-    for _ in range(iterations):
-        cuts = np.concatenate([[0], np.searchsorted(v, (c[1:] + c[:-1]) * 0.5), [len(v)]])
-        count = np.diff(cuts)
-        keep = count > 0
-        new = (prefix[cuts[1:]] - prefix[cuts[:-1]])[keep] / count[keep]
-        if len(new) == len(c) and np.allclose(new, c, rtol=0, atol=1e-12):
-            break
-        c = new
-    c = _fill_gaps(c, uniq, k)
-    return np.sort(c).astype(np.float32)
+    if len(uniq) <= k:
+        return _pad(uniq, k)
+    centers, weights = _histogram(v)
+    pw, pwx, pwxx = (np.concatenate([[0.0], np.cumsum(x)]) for x in
+                     (weights, weights * centers, weights * centers ** 2))
+    h = len(centers)
+    lo, hi = np.meshgrid(np.arange(h), np.arange(h), indexing="ij")  # bins lo..hi, lo <= hi
+    w = pw[hi + 1] - pw[lo]
+    wx = pwx[hi + 1] - pwx[lo]
+    cost = np.where((lo <= hi) & (w > 0), pwxx[hi + 1] - pwxx[lo] - wx * wx / np.where(w > 0, w, 1), 0.0)
+    cost[lo > hi] = np.inf
+    splits = _partition(cost, min(k, int((weights > 0).sum())))
+    mean = np.where(w > 0, wx / np.where(w > 0, w, 1), (centers[lo] + centers[hi]) * 0.5)
+    out, j = [], h - 1
+    for split in splits[::-1]:  # backtrack: the last group is bins split[j] + 1 .. j
+        s = int(split[j])
+        out.append(mean[s + 1, j])
+        j = s
+    return _pad(np.sort(np.array(out)), k)
 
 
-def _fill_gaps(c: np.ndarray, uniq: np.ndarray, k: int) -> np.ndarray:
-    """Spend entries lost to empty clusters on the values farthest from the codebook."""
-    c = np.unique(c)
-    while len(c) < k:
-        err = np.abs(uniq - c[np.clip(nearest_1d(uniq, c).astype(np.int64), 0, len(c) - 1)])
-        worst = np.argsort(err)[::-1][: k - len(c)]
-        extra = np.setdiff1d(uniq[worst], c)
-        if extra.size == 0:
-            break
-        c = np.unique(np.concatenate([c, extra]))
-    return np.concatenate([c, np.repeat(c[-1:], k - len(c))])
+def _histogram(v: np.ndarray, bins: int = 1024, alpha: float = 0.5):
+    """(bin centres, bin weights count^alpha) over sorted v, bin positions blending
+    quantile and uniform by how heavy the tails are (IQR against the range)."""
+    n, h = len(v), min(bins, len(v))
+    span = v[-1] - v[0]
+    beta = max(0.5, min(0.999, 1 - (v[int(n * 0.75)] - v[int(n * 0.25)]) / span))
+    pos = beta * (np.arange(n) / n) + (1 - beta) * (v - v[0]) / span
+    b = np.minimum(h - 1, np.floor(h * pos).astype(np.int64))
+    count = np.bincount(b, minlength=h).astype(np.float64)
+    total = np.bincount(b, v, minlength=h)
+    centers = np.where(count > 0, total / np.maximum(count, 1), v[0] + (np.arange(h) + 0.5) / h * span)
+    return centers, count ** alpha
+
+
+def _partition(cost: np.ndarray, k: int) -> list:
+    """split tables of the DP dp[m][j] = min_s dp[m-1][s] + cost[s+1, j]: best SSE of bins
+    0..j in m groups. splits[m-1][j] is the last bin of the first m-1 groups (-1 for m=1)."""
+    h = len(cost)
+    dp = cost[0].astype(np.float32)
+    splits = [np.full(h, -1, np.int64)]
+    last = np.full((h, h), np.inf, np.float32)  # [j, s]: cost of the group s + 1 .. j, rows contiguous
+    last[:, :-1] = cost[1:].T
+    total = np.empty((h, h), np.float32)  # float32: half the memory traffic, same splits on guitar
+    rows = np.arange(h)
+    for _ in range(1, k):
+        np.add(last, dp, out=total)  # one reused buffer: this loop is the whole cost
+        best = np.argmin(total, axis=1)
+        dp = total[rows, best]
+        splits.append(best)
+    return splits
+
+
+def _pad(c: np.ndarray, k: int) -> np.ndarray:
+    return np.concatenate([c, np.repeat(c[-1:], k - len(c))]).astype(np.float32)
 
 
 def assign(points: np.ndarray, centroids: np.ndarray) -> np.ndarray:

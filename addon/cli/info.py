@@ -6,15 +6,19 @@ import os
 
 import numpy as np
 
+from ..core.edit import statistics
 from ..core.formats import read_with_report
 
 
 def configure(parser):
     parser.add_argument("file", help="a .ply, compressed .ply, .splat, .spz, .sog (or a SOG meta.json), .glb or .gltf file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--stats", action="store_true",
+                        help="also min, max, mean, std and NaN/Inf count of each activated quantity "
+                             "(x y z, opacity 0..1, linear scales, volume, DC colour r g b)")
 
 
-def summarize(path) -> dict:
+def summarize(path, stats=False) -> dict:
     """What `info` prints, as a dict (bad values are counted, not dropped)."""
     splats, report = read_with_report(path, bad="fix")
     finite = np.isfinite(splats.positions).all(axis=1) if splats.count else np.zeros(0, bool)
@@ -27,7 +31,7 @@ def summarize(path) -> dict:
         "bbox_min": bbox_min, "bbox_max": bbox_max,
         "bad_values": report.bad.as_dict(),
         "file_bytes": os.path.getsize(path),
-    }
+    } | ({"stats": statistics(splats)} if stats else {})
 
 
 def _fmt_vec(v) -> str:
@@ -35,7 +39,7 @@ def _fmt_vec(v) -> str:
 
 
 def run(args) -> int:
-    info = summarize(args.file)
+    info = summarize(args.file, getattr(args, "stats", False))
     if args.json:
         print(json.dumps(info))
         return 0
@@ -49,4 +53,9 @@ def run(args) -> int:
     width = max(len(k) for k, _ in rows)
     for key, value in rows:
         print(f"{key:<{width}}  {value}")
+    if "stats" in info:
+        print(f"\n{'quantity':<10} {'min':>11} {'max':>11} {'mean':>11} {'std':>11} {'NaN/Inf':>8}")
+        for name, st in info["stats"].items():
+            print(f"{name:<10} " + " ".join(f"{st[k]:>11.4g}" for k in ("min", "max", "mean", "std"))
+                  + f" {st['nonfinite']:>8}")
     return 0

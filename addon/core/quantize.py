@@ -124,6 +124,13 @@ def kmeans(points: np.ndarray, k: int, iterations: int = 10, seed: int = 0,
         return x.copy(), np.arange(n)
     if k > FLAT_MAX_K:
         return _two_level(x, k, iterations, seed, sample)
+    return _flat(x, k, iterations, seed, sample)
+
+
+def _flat(x, k, iterations, seed, sample):
+    n = len(x)
+    if n <= k:
+        return x.copy(), np.arange(n)
     rng = np.random.default_rng(seed)
     m = min(n, max(sample, 4 * k))
     fit = x[np.sort(rng.choice(n, m, replace=False))] if m < n else x
@@ -138,14 +145,16 @@ def _two_level(x, k, iterations, seed, sample):
     """k-means for a large palette (SOG's 64K entries): COARSE_K clusters, then each one
     split into entries in proportion to its size. Costs N x (COARSE_K + k / COARSE_K)
     distances instead of N x k, for a slightly worse palette than a flat k-means."""
-    coarse, top = kmeans(x, COARSE_K, iterations, seed, sample)
+    coarse, top = _flat(x, COARSE_K, iterations, seed, sample)
     sizes = np.bincount(top, minlength=len(coarse))
     share = np.maximum(1, np.floor(k * sizes / len(x))).astype(np.int64) * (sizes > 0)
-    share = np.minimum(share, sizes)
+    # capped so the second level is always flat: a group of identical vectors (SH bands
+    # padded with zeros by a merge) would otherwise split into one group again, forever
+    share = np.minimum(np.minimum(share, sizes), FLAT_MAX_K)
     cents, labels, base = [], np.empty(len(x), np.int64), 0
     for group in np.flatnonzero(sizes):
         rows = np.flatnonzero(top == group)
-        cen, lab = kmeans(x[rows], int(share[group]), iterations, seed + 1 + int(group), sample)
+        cen, lab = _flat(x[rows], int(share[group]), iterations, seed + 1 + int(group), sample)
         cents.append(cen)
         labels[rows] = lab + base
         base += len(cen)

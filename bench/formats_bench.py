@@ -2,7 +2,9 @@
 beside Blender's C++ wm.ply_import of the same file (when bpy is importable) and a plain
 np.fromfile of its bytes, all in the same run; plus every testdata capture.
 
-    python -m bench.formats_bench [--count N] [--runs R]
+Then every writer on guitar and test64: file size and median write time.
+
+    python -m bench.formats_bench [--count N] [--runs R] [--writers-only]
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ import tracemalloc
 
 import numpy as np
 
-from addon.core.formats import read
+from addon.core.formats import read, write
 from addon.core.formats.ply import write_ply
 from addon.core.formats.synth import random_splats
 
@@ -77,7 +79,10 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--count", type=int, default=1_000_000)
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--writers-only", action="store_true", help="only the writer table")
     args = ap.parse_args(argv)
+    if args.writers_only:
+        return writer_rows(args.runs)
     with tempfile.TemporaryDirectory() as tmp:
         path = pathlib.Path(tmp) / "bench.ply"
         write_ply(path, random_splats(args.count, 3))
@@ -100,6 +105,34 @@ def main(argv=None) -> None:
         if f.suffix in (".ply", ".splat", ".spz"):
             ms = timed(lambda: read(f), args.runs) * 1e3
             print(f"{f.name:<28} {read(f).count:>8} {ms:8.1f}")
+
+    writer_rows(args.runs)
+
+
+# output name for each writer (a meta.json names an unbundled SOG, written into its own folder)
+WRITERS = (("ply", "o.ply", {}), ("compressed_ply", "o.compressed.ply", {}), ("splat", "o.splat", {}),
+           ("spz v4", "o.spz", {}), ("spz v3", "o3.spz", {"version": 3}), ("sog", "o.sog", {}),
+           ("sog unbundled", "un/meta.json", {}), ("glb", "o.glb", {}))
+
+
+def _size(path: pathlib.Path) -> int:
+    """A file's size; an unbundled SOG's is its whole folder."""
+    if path.name == "meta.json":
+        return sum(f.stat().st_size for f in path.parent.iterdir())
+    return path.stat().st_size
+
+
+def writer_rows(runs: int) -> None:
+    print(f"\n{'capture':<8} {'writer':<15} {'bytes':>11} {'B/splat':>8} {'ms':>9}")
+    for capture in ("guitar", "test64"):
+        splats = read(TESTDATA / f"{capture}.ply")
+        with tempfile.TemporaryDirectory() as tmp:
+            (pathlib.Path(tmp) / "un").mkdir()
+            for label, name, options in WRITERS:
+                out = pathlib.Path(tmp) / name
+                ms = timed(lambda: write(out, splats, **options), runs) * 1e3
+                size = _size(out)
+                print(f"{capture:<8} {label:<15} {size:>11,} {size / splats.count:>8.2f} {ms:>9.1f}")
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ SOURCE_PROP = "splatline_source"
 AXES_PROP = "splatline_axes"
 AXES_ITEMS = ("AUTO",) + AXES
 BAD_POLICIES = ("fix", "drop", "error")
-WRITE_AXES = {"ply": AXES_RDF, "splat": AXES_RDF}  # the convention each writable format uses
+WRITE_AXES = formats.WRITE_AXES  # the convention each writable format uses (one table, in core)
 
 
 def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad="fix", max_splats=None):
@@ -119,7 +119,7 @@ def object_splats(obj, evaluated=False, depsgraph=None):
 
 
 def export_object(obj, path, evaluated=False, depsgraph=None) -> None:
-    """Write a splat object's data to .ply or .splat, object-local (the object's transform,
+    """Write a splat object's data in the format its path names, object-local (the object's transform,
     which carries the axis convention, is not applied). Data stored in another convention
     than the format's is re-expressed in the format's. Raises SplatFormatError."""
     fmt = formats.format_for_output(path)

@@ -105,34 +105,53 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
             layout.prop(self, name)
 
 
+# (enum id, label, description, file extension)
+_EXPORT_FORMATS = (
+    ("PLY", "INRIA PLY (.ply)", "Float PLY with every SH band: a lossless round trip", ".ply"),
+    ("COMPRESSED_PLY", "Compressed PLY (.compressed.ply)",
+     "PlayCanvas/SuperSplat packed PLY: about a quarter of the float PLY", ".compressed.ply"),
+    ("SPLAT", "antimatter15 (.splat)", "Compact 32-byte splats, no higher SH", ".splat"),
+    ("SPZ", "Niantic SPZ (.spz)", "SPZ v4 (zstd streams), about a tenth of the float PLY", ".spz"),
+    ("SOG", "PlayCanvas SOG (.sog)", "SOG v2 bundled: WebP images in a zip, the smallest", ".sog"),
+    ("GLB", "glTF binary (.glb)", "KHR_gaussian_splatting glTF, one binary file", ".glb"),
+    ("GLTF", "glTF (.gltf)", "KHR_gaussian_splatting glTF with embedded buffers", ".gltf"),
+)
+_EXPORT_EXT = {key: ext for key, _, _, ext in _EXPORT_FORMATS}
+
+
 class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
-    """Export the selected splat objects' data (object-local) to .ply or .splat"""
+    """Export the selected splat objects' data (object-local) to any writable splat format"""
 
     bl_idname = "export_scene.splatline_gaussians"
-    bl_label = "Gaussian Splats (.ply, .splat)"
+    bl_label = "Gaussian Splats (.ply, .splat, .spz, .sog, .glb)"
     bl_options = {"REGISTER", "PRESET"}
 
-    filter_glob: StringProperty(default="*.ply;*.splat", options={"HIDDEN"})
-    file_format: EnumProperty(name="Format", default="PLY", items=[
-        ("PLY", "INRIA PLY (.ply)", "Float PLY with every SH band: a lossless round trip"),
-        ("SPLAT", "antimatter15 (.splat)", "Compact 32-byte splats, no higher SH"),
-    ])
+    filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;*.glb;*.gltf", options={"HIDDEN"})
+    file_format: EnumProperty(name="Format", default="PLY",
+                              items=[item[:3] for item in _EXPORT_FORMATS])
 
     @property
     def filename_ext(self):
-        return ".splat" if self.file_format == "SPLAT" else ".ply"
+        return _EXPORT_EXT[self.file_format]
 
     @classmethod
     def poll(cls, context):
         return any(_is_splat_object(o) for o in context.selected_objects)
+
+    def _root(self) -> str:
+        """The chosen path without any known extension: the format picks the extension."""
+        path = self.filepath
+        for ext in sorted(set(_EXPORT_EXT.values()), key=len, reverse=True):
+            if path.lower().endswith(ext):
+                return path[: -len(ext)]
+        return path
 
     def execute(self, context):
         objects = [o for o in context.selected_objects if _is_splat_object(o)]
         if not objects:
             self.report({"ERROR"}, "select a splat object to export")
             return {"CANCELLED"}
-        root, ext = os.path.splitext(self.filepath)
-        ext = ext if ext.lower() in (".ply", ".splat") else self.filename_ext
+        root, ext = self._root(), self.filename_ext
         written = []
         for obj in objects:
             path = root + ext if len(objects) == 1 else f"{root}_{bpy.path.clean_name(obj.name)}{ext}"
@@ -178,7 +197,8 @@ def _menu_import(self, context):
 
 
 def _menu_export(self, context):
-    self.layout.operator(EXPORT_SCENE_OT_splatline_gaussians.bl_idname, text="Gaussian Splats (.ply, .splat)")
+    self.layout.operator(EXPORT_SCENE_OT_splatline_gaussians.bl_idname,
+                         text="Gaussian Splats (.ply, .splat, .spz, .sog, .glb)")
 
 
 _CLASSES = (IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians, IO_FH_splatline_gaussians)

@@ -6,6 +6,7 @@ import os
 
 import numpy as np
 
+from ..core.edit import statistics
 from ..core.formats import read_with_report
 
 
@@ -15,9 +16,12 @@ def configure(parser):
     parser.add_argument("--max-splats", type=int, default=None, metavar="N",
                         help="splat budget: refuse a file claiming more than N splats before "
                              "decompressing it (default: what fits in available memory)")
+    parser.add_argument("--stats", action="store_true",
+                        help="also min, max, mean, std and NaN/Inf count of each activated quantity "
+                             "(x y z, opacity 0..1, linear scales, volume, DC colour r g b)")
 
 
-def summarize(path, max_splats=None) -> dict:
+def summarize(path, stats=False, max_splats=None) -> dict:
     """What `info` prints, as a dict (bad values are counted, not dropped)."""
     splats, report = read_with_report(path, bad="fix", max_splats=max_splats)
     finite = np.isfinite(splats.positions).all(axis=1) if splats.count else np.zeros(0, bool)
@@ -30,7 +34,7 @@ def summarize(path, max_splats=None) -> dict:
         "bbox_min": bbox_min, "bbox_max": bbox_max,
         "bad_values": report.bad.as_dict(),
         "file_bytes": os.path.getsize(path),
-    }
+    } | ({"stats": statistics(splats)} if stats else {})
 
 
 def _fmt_vec(v) -> str:
@@ -38,7 +42,7 @@ def _fmt_vec(v) -> str:
 
 
 def run(args) -> int:
-    info = summarize(args.file, args.max_splats)
+    info = summarize(args.file, getattr(args, "stats", False), args.max_splats)
     if args.json:
         print(json.dumps(info))
         return 0
@@ -53,4 +57,9 @@ def run(args) -> int:
     width = max(len(k) for k, _ in rows)
     for key, value in rows:
         print(f"{key:<{width}}  {value}")
+    if "stats" in info:
+        print(f"\n{'quantity':<10} {'min':>11} {'max':>11} {'mean':>11} {'std':>11} {'NaN/Inf':>8}")
+        for name, st in info["stats"].items():
+            print(f"{name:<10} " + " ".join(f"{st[k]:>11.4g}" for k in ("min", "max", "mean", "std"))
+                  + f" {st['nonfinite']:>8}")
     return 0

@@ -20,9 +20,10 @@ from ..validate import BadValues, check_values
 from ._common import file_size
 
 READ_FORMATS = ("ply", "compressed_ply", "splat", "spz", "sog", "glb", "gltf")
-WRITE_FORMATS = ("ply", "compressed_ply", "splat", "glb", "gltf")
-WRITE_MAX_DEGREE = {"ply": 3, "compressed_ply": 3, "splat": 0, "glb": 3, "gltf": 3}  # .splat stores no higher SH bands
-WRITE_AXES = {"ply": AXES_RDF, "compressed_ply": AXES_RDF, "splat": AXES_RDF, "glb": AXES_RDF, "gltf": AXES_RDF}  # the convention each writable format holds
+WRITE_FORMATS = ("ply", "compressed_ply", "splat", "spz", "sog", "glb", "gltf")
+WRITE_MAX_DEGREE = {f: 3 for f in WRITE_FORMATS} | {"splat": 0}  # .splat stores no higher SH bands
+# the convention each writable format holds (spz and sog: RDF, as splat-transform writes them)
+WRITE_AXES = {f: AXES_RDF for f in WRITE_FORMATS}
 EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz", ".sog": "sog", ".glb": "glb", ".gltf": "gltf"}
 
 
@@ -123,15 +124,18 @@ def format_for_output(path) -> str:
     fmt = EXTENSIONS.get(ext)
     if os.fspath(path).lower().endswith(".compressed.ply"):  # the name promises packed data
         return "compressed_ply"
+    if os.path.basename(os.fspath(path)).lower() == "meta.json":  # unbundled SOG
+        return "sog"
     if fmt not in WRITE_FORMATS:
         raise SplatFormatError(path, f"cannot write {ext or 'extension-less'} files; "
                                      f"writable: {', '.join(WRITE_FORMATS)}")
     return fmt
 
 
-def write(path, splats: SplatSet, format=None) -> None:
+def write(path, splats: SplatSet, format=None, **options) -> None:
     """Write in the format's own axis convention: a set in another convention (an spz read
-    as RUB, a procedural RFU set) is re-expressed first, so the file means the same thing."""
+    as RUB, a procedural RFU set) is re-expressed first, so the file means the same thing.
+    `options` go to the writer: spz `version` (4 or 3); sog `iterations`, `seed`."""
     fmt = format or format_for_output(path)
     if fmt in WRITE_AXES:
         splats = reframe(splats, WRITE_AXES[fmt])
@@ -147,6 +151,12 @@ def write(path, splats: SplatSet, format=None) -> None:
     elif fmt == "compressed_ply":
         from .compressed_ply_write import write_compressed_ply
         write_compressed_ply(path, splats)
+    elif fmt == "spz":
+        from .spz_write import write_spz
+        write_spz(path, splats, **options)
+    elif fmt == "sog":  # bundled .sog, or meta.json beside its images
+        from .sog_write import write_sog
+        write_sog(path, splats, **options)
     elif fmt in ("glb", "gltf"):  # RDF here; the writer turns it into glTF's own frame
         from .gltf_write import write_gltf
         write_gltf(path, splats, binary_container=fmt == "glb")

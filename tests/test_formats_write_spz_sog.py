@@ -1,0 +1,163 @@
+"""SPZ and SOG writers: what Splatline writes reads back through its own readers within each
+format's quantization step (bounds derived from the steps, or from the codebook the file
+itself holds), and matches splat-transform's layout."""
+from __future__ import annotations
+
+import gzip
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+from addon.core.formats import detect_format, format_for_output, read, write
+from addon.core.formats.sog_write import log_transform, palette_size, sog_order
+from addon.core.formats.spz import _read_v4
+from addon.core.formats.spz_write import encode_spz
+from addon.core.quantize import assign, codebook_1d, kmeans, nearest_1d
+
+CAPTURES = ["guitar", "test64"]
+
+
+@pytest.fixture(scope="module", params=CAPTURES)
+def capture(request, testdata):
+    return request.param, read(testdata / f"{request.param}.ply")
+
+
+def test_spz_v4_attribute_bytes_match_splat_transform(testdata, capture):
+    """splat-transform runs Niantic's own packer: our streams must be the same bytes."""
+    name, src = capture
+    theirs = _read_v4("theirs", (testdata / f"{name}.spz").read_bytes())
+    ours = _read_v4("ours", encode_spz(src))
+    assert ours[0] == theirs[0]  # version, count, degree, fractional bits, flags
+    for a, b in zip(ours[1], theirs[1]):
+        assert np.array_equal(a, b)
+
+
+def _rot_bound_dot(half_step):
+    """Three stored components off by <= h each; the rebuilt largest one by <= 3h (it is
+    the largest, so d|c|/d(stored) <= 1): |dq|^2 <= 12 h^2, dot >= 1 - 6 h^2."""
+    return 1.0 - 6.0 * half_step ** 2 - 1e-6
+
+
+def _same_rotation(back, ref, half_step):
+    dot = np.abs(np.einsum("ij,ij->i", back.astype(np.float64), ref.astype(np.float64)))
+    assert dot.min() >= _rot_bound_dot(half_step)
+
+
+@pytest.mark.parametrize("version", [4, 3])
+def test_spz_round_trip_within_steps(capture, tmp_path, version):
+    name, src = capture
+    out = tmp_path / "o.spz"
+    write(out, src, version=version)
+    raw = out.read_bytes()
+    assert raw[:4] == b"NGSP" if version == 4 else gzip.decompress(raw)[4] == 3
+    back = read(out)
+    assert back.count == src.count and back.sh_degree == src.sh_degree
+    tol32 = np.abs(src.positions) * 1.2e-7  # float32 rounding of the decoded value
+    assert (np.abs(back.positions - src.positions) <= 0.5 / 4096 + tol32).all()
+    assert np.abs(back.opacities - src.opacities).max() <= 0.5 / 255 + 1e-6
+    dc = np.clip(src.sh_dc, -0.5 / 0.15, 0.5 / 0.15)  # the u8 colour range
+    assert np.abs(back.sh_dc - dc).max() <= 0.5 / 255 / 0.15 + 1e-5
+    log_s = np.clip(np.log(src.scales), -10, 255 / 16 - 10)
+    assert np.abs(np.log(back.scales) - log_s).max() <= 0.5 / 16 + 1e-5
+    _same_rotation(back.rotations, src.rotations, 0.5 * np.sqrt(0.5) / 511)
+    if src.sh_degree:  # rounding to 1/128, then snapping to buckets of 8 (band 1) / 16
+        err = np.abs(back.sh_rest - np.clip(src.sh_rest, -1, 127 / 128)) * 128
+        assert err[:, :3].max() <= 0.5 + 4 + 1e-3
+        assert err[:, 3:].max() <= 0.5 + 8 + 1e-3
+
+
+def _sog_meta(path):
+    with zipfile.ZipFile(path) as z:
+        return json.loads(z.read("meta.json"))
+
+
+def _nearest_error(values, codebook):
+    book = np.asarray(codebook, np.float32)
+    return np.abs(book[nearest_1d(values.astype(np.float32), book).astype(np.int64)] - values)
+
+
+def test_sog_round_trip_within_steps(capture, tmp_path):
+    name, src = capture
+    out = tmp_path / "o.sog"
+    write(out, src)
+    assert detect_format(out) == "sog"
+    back, meta = read(out), _sog_meta(out)
+    ref = src.subset(sog_order(src.positions))
+    assert back.count == src.count and back.sh_degree == src.sh_degree and meta["count"] == src.count
+    span = np.array(meta["means"]["maxs"]) - np.array(meta["means"]["mins"])
+    t_err = np.abs(log_transform(back.positions.astype(np.float64)) - log_transform(ref.positions.astype(np.float64)))
+    assert (t_err <= span / 65535 / 2 * (1 + 1e-6) + 1e-6).all()
+    # codebook columns: each value decodes to the codebook entry nearest to it
+    log_err = np.abs(np.log(back.scales) - np.log(ref.scales))
+    assert (log_err <= _nearest_error(np.log(ref.scales), meta["scales"]["codebook"]) + 1e-5).all()
+    assert (np.abs(back.sh_dc - ref.sh_dc) <= _nearest_error(ref.sh_dc, meta["sh0"]["codebook"]) + 1e-6).all()
+    visible = ref.opacities >= 0.5 / 255
+    assert np.abs(back.opacities - ref.opacities)[visible].max() <= 0.5 / 255 + 1e-6
+    assert (back.opacities[~visible] == np.float32(1 / 255)).all()  # alpha kept >= 1
+    _same_rotation(back.rotations, ref.rotations, 1 / (255 * np.sqrt(2)))
+    if src.sh_degree:
+        assert meta["shN"]["count"] == palette_size(src.count) and meta["shN"]["bands"] == src.sh_degree
+        assert src.count <= palette_size(src.count)  # test64: every splat its own entry
+        bound = _nearest_error(ref.sh_rest, meta["shN"]["codebook"])
+        assert (np.abs(back.sh_rest - ref.sh_rest) <= bound + 1e-6).all()
+
+
+def test_sog_smaller_than_float_ply_and_near_splat_transform(testdata, tmp_path):
+    out = tmp_path / "g.sog"
+    write(out, read(testdata / "guitar.ply"))
+    assert out.stat().st_size <= 1.05 * (testdata / "guitar.sog").stat().st_size
+
+
+def test_sog_unbundled_reads_like_bundled(testdata, tmp_path):
+    src = read(testdata / "test64.ply")
+    write(tmp_path / "a.sog", src)
+    meta = tmp_path / "un" / "meta.json"
+    meta.parent.mkdir()
+    assert format_for_output(meta) == "sog"
+    write(meta, src)
+    assert sorted(p.name for p in meta.parent.iterdir()) == sorted(
+        ["meta.json", "means_l.webp", "means_u.webp", "quats.webp", "scales.webp", "sh0.webp",
+         "shN_centroids.webp", "shN_labels.webp"])
+    a, b = read(tmp_path / "a.sog"), read(meta)
+    for field in ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"):
+        assert np.array_equal(getattr(a, field), getattr(b, field)), field
+
+
+def test_sog_and_spz_writes_are_deterministic(testdata, tmp_path):
+    src = read(testdata / "test64.ply")
+    for ext in (".sog", ".spz"):
+        write(tmp_path / f"a{ext}", src)
+        write(tmp_path / f"b{ext}", src)
+        assert (tmp_path / f"a{ext}").read_bytes() == (tmp_path / f"b{ext}").read_bytes()
+
+
+def test_codebook_1d_lossless_when_few_values():
+    few = np.random.default_rng(1).choice(np.linspace(-3, 2, 100), 5000)
+    book = codebook_1d(few)
+    assert len(book) == 256 and np.all(np.diff(book) >= 0)
+    assert np.array_equal(book[nearest_1d(few, book).astype(np.int64)], few.astype(np.float32))
+
+
+def test_codebooks_match_splat_transform_on_guitar(testdata, tmp_path):
+    """Same histogram + DP as splat-transform: the scales and sh0 codebooks of its guitar.sog."""
+    src = read(testdata / "guitar.ply")
+    theirs = _sog_meta(testdata / "guitar.sog")
+    for key, values in (("scales", np.log(src.scales)), ("sh0", src.sh_dc)):
+        ours = codebook_1d(values)
+        assert np.allclose(ours, theirs[key]["codebook"], rtol=1e-5, atol=1e-6), key
+
+
+@pytest.mark.parametrize("k", [64, 5000])  # flat, and the two-level path above 4096
+def test_kmeans_seeded_and_better_than_its_seed(k):
+    rng = np.random.default_rng(2)
+    pts = (rng.normal(size=(20_000, 9)) * rng.uniform(0.1, 1, 9)).astype(np.float32)
+    cen, lab = kmeans(pts, k, seed=3)
+    cen2, lab2 = kmeans(pts, k, seed=3)
+    assert np.array_equal(cen, cen2) and np.array_equal(lab, lab2)
+    assert len(cen) <= k and lab.max() < len(cen)
+    sse = ((pts - cen[lab]) ** 2).sum()
+    seeds = pts[rng.choice(len(pts), len(cen), replace=False)]
+    base = ((pts - seeds[assign(pts, seeds)]) ** 2).sum()
+    assert sse < 0.9 * base

@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 
+from addon.blender.pointcloud import value_key
 from addon.core import formats
 
 
@@ -17,7 +18,8 @@ def test_operator_imports_sog_and_glb(bpy_empty, testdata, name, obj_name):
     obj = bpy.data.objects[obj_name]
     assert len(obj.data.points) == formats.read(testdata / name).count
     base = np.zeros(len(obj.data.points) * 4, np.float32)
-    obj.data.attributes["radiance:base"].data.foreach_get("color", base)
+    attribute = obj.data.attributes["radiance:base"]  # FLOAT4 on 5.1+, FLOAT_COLOR before
+    attribute.data.foreach_get(value_key(attribute), base)
     assert np.isfinite(base).all()
 
 

@@ -132,8 +132,8 @@ def bpy_table(n: int, runs: int) -> None:
         print("(bpy not importable: Blender rows skipped)")
         return
     from addon import register
-    from addon.blender import evaluate
-    from addon.blender.pointcloud import new_pointcloud_object
+    from addon.blender.evaluate import items as evaluate
+    from addon.blender.data.pointcloud import new_pointcloud_object
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if not hasattr(bpy.types.Object, "splatline"):

@@ -29,7 +29,7 @@ def main() -> None:
     from viewport_scene import psnr
 
     from addon import register
-    from addon.blender import render_paths
+    from addon.blender.render import paths as render_paths
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if not hasattr(bpy.types.Object, "splatline"):

@@ -48,7 +48,7 @@ def _clear(bpy) -> None:
 
 def _importer(variant: str, bpy, stages: list):
     if variant == "splatline":
-        from addon.blender.import_splats import import_file_with_report
+        from addon.blender.data.files import import_file_with_report
 
         # the progress callback marks the end of reading (and of building)
         def run(path):

@@ -44,9 +44,9 @@ def main() -> None:
     import bpy
 
     from addon import register
-    from addon.blender import sequence_runtime
-    from addon.blender.evaluate import collect_items
-    from addon.blender.sequence_io import import_sequence
+    from addon.blender.evaluate import sequence_frames as sequence_runtime
+    from addon.blender.evaluate.items import collect_items
+    from addon.blender.data.sequences import import_sequence
     from addon.core.formats import read, write
     from addon.core.formats.synth import random_splats
 

@@ -25,7 +25,7 @@ def grid_splats(n_side=4, degree=1, seed=0) -> SplatSet:
 
 
 def add_object(name, splats, location=(0.0, 0.0, 0.0)):
-    from addon.blender.pointcloud import new_pointcloud_object
+    from addon.blender.data.pointcloud import new_pointcloud_object
 
     obj = new_pointcloud_object(name, splats)
     obj.location = location
@@ -42,7 +42,7 @@ def snapshot(item) -> tuple:
 
 
 def items_at(bpy, frame):
-    from addon.blender.evaluate import collect_items
+    from addon.blender.evaluate.items import collect_items
 
     bpy.context.scene.frame_set(frame)
     items = collect_items(bpy.context.evaluated_depsgraph_get())

@@ -45,9 +45,9 @@ def render_exr(bpy, scene, path, kind, depth=True):
 
 def reference_frame(bpy, scene):
     """The float64 reference of the same evaluated scene, region and options."""
-    from addon.blender.camera import camera_from_blender
-    from addon.blender.evaluate import collect_items
-    from addon.blender.render_film import region_camera, render_region
+    from addon.blender.render.camera import camera_from_blender
+    from addon.blender.evaluate.items import collect_items
+    from addon.blender.render.film import region_camera, render_region
     from addon.core import reference
 
     depsgraph = bpy.context.evaluated_depsgraph_get()

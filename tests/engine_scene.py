@@ -24,7 +24,7 @@ def flat_splats(centres, colours, scale=0.5, opacity=1.0) -> SplatSet:
 
 
 def add_splats(bpy, name, splats, location=(0.0, 0.0, 0.0)):
-    from addon.blender.pointcloud import new_pointcloud_object
+    from addon.blender.data.pointcloud import new_pointcloud_object
 
     obj = new_pointcloud_object(name, splats)
     obj.location = location
@@ -86,8 +86,8 @@ def orbit_keys(bpy, camera, radius, height, frames, target=(0.0, 0.0, 0.0)):
 
 def guitar_scene(bpy, testdata, frames, width, height, count):
     """guitar.ply (the `count` most important splats) seen by a camera orbiting it."""
-    from addon.blender.import_splats import import_file
-    from addon.blender.pointcloud import splats_from_pointcloud
+    from addon.blender.data.files import import_file
+    from addon.blender.data.pointcloud import splats_from_pointcloud
 
     obj = import_file(bpy.context, testdata / "guitar.ply", max_count=count)
     local = splats_from_pointcloud(obj.data).positions.astype(np.float64)

@@ -157,7 +157,7 @@ def test_show_toggle_is_animatable_and_hides_the_object_from_collect_items(bpy_e
     look.keyframe_insert("visible", frame=20)
     shown = {f: len(items_at(bpy, f)) for f in FRAMES}
     assert shown == {5: 1, 10: 1, 15: 1, 20: 0, 25: 0}
-    from addon.blender.evaluate import item_for
+    from addon.blender.evaluate.items import item_for
 
     hidden = item_for(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
     assert hidden.opacity_scale == 0.0  # a direct item_for (the viewport's path) draws nothing

@@ -15,7 +15,7 @@ FRAMES = (1, 2, 3, 4)
 def animated_source(bpy, tmp_path):
     """A capture whose evaluated splats change every frame: a Geometry Nodes Set Position
     with a keyframed offset (a real depsgraph evaluation, no effect code needed)."""
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     path = tmp_path / "capture.ply"
     write(path, random_splats(60, degree=2, seed=7))
@@ -36,7 +36,7 @@ def animated_source(bpy, tmp_path):
 
 
 def item_of(bpy, obj, frame):
-    from addon.blender.evaluate import collect_items
+    from addon.blender.evaluate.items import collect_items
 
     bpy.context.scene.frame_set(frame)
     hits = [i for i in collect_items(bpy.context.evaluated_depsgraph_get()) if i.key[0] == obj.name]
@@ -51,7 +51,7 @@ def bake(bpy, obj, directory, start, end):
 
 def test_bake_round_trip_plays_back_per_frame(bpy_empty, tmp_path):
     """Must-show: bake N frames, re-import the folder as a sequence, same data per frame."""
-    from addon.blender.sequence_io import import_sequence
+    from addon.blender.data.sequences import import_sequence
 
     bpy = bpy_empty
     src, capture = animated_source(bpy, tmp_path)
@@ -84,7 +84,7 @@ def test_bake_round_trip_plays_back_per_frame(bpy_empty, tmp_path):
 
 
 def test_export_evaluated_ply_and_splat(bpy_empty, tmp_path):
-    from addon.blender.sequence_io import export_evaluated
+    from addon.blender.data.sequences import export_evaluated
 
     bpy = bpy_empty
     src, _ = animated_source(bpy, tmp_path)
@@ -124,7 +124,7 @@ def _keyed_look(obj):
 def test_bake_folds_the_look_and_renders_the_same(bpy_empty, tmp_path):
     """Keyframed look (size, opacity, tint, exposure, saturation, hue, SH cap) is baked into
     the data: the re-imported sequence, with no look of its own, renders like the source."""
-    from addon.blender.sequence_io import import_sequence
+    from addon.blender.data.sequences import import_sequence
     from addon.core import reference
     from addon.core.bake import baked_splats
     from addon.core.camera import look_at, simple_camera
@@ -162,7 +162,7 @@ def test_bake_folds_the_look_and_renders_the_same(bpy_empty, tmp_path):
 
 def test_sequence_with_an_effect_bakes_and_replays(bpy_empty, tmp_path):
     """Effects act on each sequence frame, and a bake of that re-imports frame for frame."""
-    from addon.blender.sequence_io import import_sequence
+    from addon.blender.data.sequences import import_sequence
 
     bpy = bpy_empty
     raw = []
@@ -201,7 +201,7 @@ def test_real_spz_capture_bakes_to_ply_and_renders_the_same(bpy_empty, tmp_path,
     object's transform carries the other convention, and the picture is the same."""
     import shutil
 
-    from addon.blender.sequence_io import import_sequence
+    from addon.blender.data.sequences import import_sequence
     from addon.core import reference
     from addon.core.camera import look_at, simple_camera
 

@@ -8,8 +8,8 @@ import threading
 
 import numpy as np
 
-from addon.blender import evaluate
-from addon.blender.import_splats import import_file
+from addon.blender.evaluate import items as evaluate
+from addon.blender.data.files import import_file
 from addon.core.splats import SplatSet
 
 

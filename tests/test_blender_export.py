@@ -24,7 +24,7 @@ def _sigmoid(x):
 
 @pytest.mark.parametrize("name", ["guitar.ply", "test64.ply"])
 def test_float_ply_round_trip(bpy_empty, testdata, tmp_path, name):
-    from addon.blender.import_splats import export_object, import_file
+    from addon.blender.data.files import export_object, import_file
 
     src = testdata / name
     obj = import_file(bpy_empty.context, src)
@@ -75,7 +75,7 @@ def test_export_splat_and_operator(bpy_empty, testdata, tmp_path):
 
 
 def test_export_errors(bpy_empty, testdata, tmp_path):
-    from addon.blender.import_splats import export_object, import_file
+    from addon.blender.data.files import export_object, import_file
     from addon.core.errors import SplatFormatError
 
     obj = import_file(bpy_empty.context, testdata / "test64.ply")
@@ -88,7 +88,7 @@ def test_export_errors(bpy_empty, testdata, tmp_path):
 
 def test_cross_convention_export_keeps_the_world(bpy_empty, tmp_path):
     """Data stored y-up (RUB) exported to .ply (RDF) lands in the same world place."""
-    from addon.blender.import_splats import export_object, import_file
+    from addon.blender.data.files import export_object, import_file
 
     path = tmp_path / "rub.ply"
     formats.write(path, random_splats(50, 3, seed=3))
@@ -132,7 +132,7 @@ def test_reframe_preserves_geometry_and_colour(src, dst):
 def test_export_evaluated_applies_modifiers(bpy_empty, testdata, tmp_path):
     """evaluated=True writes what the depsgraph makes of the object (here a geometry-nodes
     translation); the default writes the stored data."""
-    from addon.blender.import_splats import export_object, import_file
+    from addon.blender.data.files import export_object, import_file
 
     bpy = bpy_empty
     obj = import_file(bpy.context, testdata / "test64.ply")

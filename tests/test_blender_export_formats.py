@@ -11,7 +11,7 @@ CASES = [("PLY", "o.ply", "ply"), ("COMPRESSED_PLY", "o.compressed.ply", "compre
 
 
 def test_export_menu_offers_every_writer(bpy_empty):
-    from addon.blender.io_ops import _EXPORT_EXT
+    from addon.blender.ops.io import _EXPORT_EXT
 
     assert {formats.format_for_output("x" + ext) for ext in _EXPORT_EXT.values()} == set(formats.WRITE_FORMATS)
     rna = bpy_empty.ops.export_scene.splatline_gaussians.get_rna_type()

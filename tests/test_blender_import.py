@@ -46,7 +46,7 @@ def _check_schema(bpy, obj, expected, degree):
 
 
 def test_schema_test64_degree3(bpy_empty, testdata):
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     path = testdata / "test64.ply"
     obj = import_file(bpy_empty.context, path)
@@ -62,7 +62,7 @@ def test_schema_test64_degree3(bpy_empty, testdata):
 
 
 def test_schema_guitar_degree0(bpy_empty, testdata):
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     path = testdata / "guitar.ply"
     obj = import_file(bpy_empty.context, path, max_sh_degree=0)
@@ -71,7 +71,7 @@ def test_schema_guitar_degree0(bpy_empty, testdata):
 
 
 def test_capped_degree_stores_only_needed_bands(bpy_empty, testdata):
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     obj = import_file(bpy_empty.context, testdata / "test64.ply", max_sh_degree=1)
     names = [a.name for a in obj.data.attributes if a.name.startswith("radiance:sh_")]
@@ -81,7 +81,7 @@ def test_capped_degree_stores_only_needed_bands(bpy_empty, testdata):
 
 
 def test_prune_and_importance_limit(bpy_empty, testdata):
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     path = testdata / "guitar.ply"
     full = formats.read(path)
@@ -103,7 +103,7 @@ def test_prune_and_importance_limit(bpy_empty, testdata):
 def test_axis_convention_on_object(bpy_empty, testdata):
     from mathutils import Vector
 
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     ply = import_file(bpy_empty.context, testdata / "test64.ply")
     assert tuple(ply.rotation_euler) == pytest.approx((-math.pi / 2, 0, 0), abs=1e-6)
@@ -172,7 +172,7 @@ def test_undo_removes_import(bpy_empty, testdata):
 
 
 def test_progress_and_report(bpy_empty, testdata):
-    from addon.blender.import_splats import import_file_with_report
+    from addon.blender.data.files import import_file_with_report
 
     seen = []
     obj, report = import_file_with_report(bpy_empty.context, testdata / "test64.ply", progress=seen.append)
@@ -183,7 +183,7 @@ def test_progress_and_report(bpy_empty, testdata):
 
 @pytest.mark.parametrize("name", ["guitar.compressed.ply", "guitar.splat", "guitar.spz", "test64.compressed.ply"])
 def test_every_format_imports_with_the_schema(bpy_empty, testdata, name):
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     obj = import_file(bpy_empty.context, testdata / name)
     expected = formats.read(testdata / name)
@@ -203,7 +203,7 @@ def test_import_from_edit_mode(bpy_empty, testdata):
 
 @pytest.mark.parametrize("shape", [(5, 3, 3), (3, 7, 3), (0, 4, 3), (4, 0, 3), (3000, 15, 3), (8, 5000, 3)])
 def test_swap01_matches_transpose(bpy_empty, shape):
-    from addon.blender.pointcloud import per_coefficient, swap01
+    from addon.blender.data.pointcloud import per_coefficient, swap01
 
     a = np.random.default_rng(0).random(shape, dtype=np.float32)
     out = swap01(a)

@@ -70,7 +70,7 @@ def _counts(bpy):
 
 @pytest.mark.parametrize("make", CASES, ids=[c.__name__.strip("_") for c in CASES])
 def test_bad_file_leaves_nothing(bpy_empty, testdata, tmp_path, make):
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     bpy = bpy_empty
     bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply"))  # something already there
@@ -112,7 +112,7 @@ def test_good_and_bad_files_together(bpy_empty, testdata, tmp_path, capfd):
 
 
 def test_nothing_left_when_options_select_nothing(bpy_empty, testdata):
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     with pytest.raises(SplatFormatError, match="no splats left"):
         import_file(bpy_empty.context, testdata / "test64.ply", min_opacity=1.0 + 1e-6)
@@ -122,7 +122,7 @@ def test_nothing_left_when_options_select_nothing(bpy_empty, testdata):
 def test_failure_inside_blender_build_leaves_nothing(bpy_empty, testdata):
     """A failure after the mesh, helper object and PointCloud exist (linking into a removed
     collection) is cleaned up too."""
-    from addon.blender.import_splats import import_file
+    from addon.blender.data.files import import_file
 
     bpy = bpy_empty
     gone = bpy.data.collections.new("gone")
@@ -137,7 +137,7 @@ def test_nan_and_zero_quaternions_by_policy(bpy_empty, tmp_path):
     refuses them, and a refusal leaves nothing behind."""
     import numpy as np
 
-    from addon.blender.import_splats import import_file_with_report
+    from addon.blender.data.files import import_file_with_report
     from addon.core import formats
     from addon.core.formats.synth import random_splats
 

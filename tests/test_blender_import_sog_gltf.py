@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from addon.blender.pointcloud import value_key
+from addon.blender.data.pointcloud import value_key
 from addon.core import formats
 
 

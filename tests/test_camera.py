@@ -108,7 +108,7 @@ def _blender_pixels(bpy, obj, depsgraph, width, height, ax, ay, points):
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: f"{c[0]}x{c[1]}-{c[5]}-{c[6]}-asp{c[3]}:{c[4]}")
 def test_matches_blender_projection_matrix(bpy_empty, case):
-    from addon.blender.camera import camera_from_blender
+    from addon.blender.render.camera import camera_from_blender
 
     scene, obj = _scene_camera(bpy_empty, case)
     depsgraph = bpy_empty.context.evaluated_depsgraph_get()
@@ -129,7 +129,7 @@ def test_matches_world_to_camera_view(bpy_empty, case):
     from bpy_extras.object_utils import world_to_camera_view
     from mathutils import Vector
 
-    from addon.blender.camera import camera_from_blender
+    from addon.blender.render.camera import camera_from_blender
 
     scene, obj = _scene_camera(bpy_empty, case)
     obj.scale = (2.0, 0.5, 3.0)  # Blender renders from the normalised matrix
@@ -144,7 +144,7 @@ def test_matches_world_to_camera_view(bpy_empty, case):
 
 
 def test_evaluated_animation_and_non_camera_object(bpy_empty):
-    from addon.blender.camera import camera_from_blender
+    from addon.blender.render.camera import camera_from_blender
 
     scene, obj = _scene_camera(bpy_empty, CASES[0])
     obj.data.lens = 20.0

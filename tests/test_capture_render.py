@@ -118,8 +118,8 @@ def test_bad_capture_and_camera_on_blend_are_one_line(tmp_path):
 
 
 def test_import_adds_a_camera_that_frames_the_capture(bpy_empty, testdata, tmp_path):
-    from addon.blender.camera import camera_from_blender
-    from addon.blender.capture_camera import splat_world_points
+    from addon.blender.render.camera import camera_from_blender
+    from addon.blender.data.capture_camera import splat_world_points
     from addon.core.framing import robust_bounds
 
     out = tmp_path / "g.blend"
@@ -143,8 +143,8 @@ def test_import_adds_a_camera_that_frames_the_capture(bpy_empty, testdata, tmp_p
 
 def test_camera_track_operator(bpy_empty, tmp_path):
     """File > Import > Splat Camera Track keys a camera that follows a moved capture."""
-    from addon.blender.camera import camera_from_blender
-    from addon.blender.import_splats import import_file
+    from addon.blender.render.camera import camera_from_blender
+    from addon.blender.data.files import import_file
 
     bpy = bpy_empty
     assert any(getattr(f, "__name__", "") == "_menu_import" and "camera_track" in f.__module__

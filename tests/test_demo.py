@@ -69,7 +69,7 @@ def test_prints_paths_and_time_per_frame(demo):
 
 
 def test_blend_reopens_with_objects_effects_and_keyframes(demo, bpy_empty):
-    from addon.blender.evaluate import is_splat_object
+    from addon.blender.evaluate.items import is_splat_object
 
     bpy = bpy_empty
     out, _ = demo
@@ -132,7 +132,7 @@ def test_exr_sequence(demo):
 
 def _decode_movie(bpy, path, tmp_path):
     """Every frame of a movie as 8-bit RGB, read by Blender's own movie reader."""
-    from addon.blender import demo_video
+    from addon.blender.demo import video as demo_video
 
     image = bpy.data.images.load(str(path))
     assert image.source == "MOVIE"
@@ -174,7 +174,7 @@ def test_mp4_has_every_frame_in_the_exr_colours(demo, bpy_empty, tmp_path):
 
 
 def test_png_still_is_the_showcase_frame(demo):
-    from addon.blender.demo_scene import showcase_frame
+    from addon.blender.demo.scene import showcase_frame
 
     out, _ = demo
     still = read_image(out / "demo.png")
@@ -197,7 +197,7 @@ def test_file_replaces_the_knot(tmp_path, testdata, bpy_empty):
     assert len(source.data.points) == count and len(target.data.points) == count * 3 // 4
     assert source.splatline.effects[2].target == target
     # the planet is sized to the capture: its radius is a fraction of the capture's extent
-    from addon.blender.demo_scene import world_bounds
+    from addon.blender.demo.scene import world_bounds
 
     extent = float(np.max(world_bounds(source).high - world_bounds(source).low))
     assert 0.2 * extent < target.scale[0] < extent

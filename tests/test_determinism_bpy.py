@@ -79,7 +79,7 @@ def test_frame_57_is_the_same_however_we_get_there(bpy_empty, tmp_path):
 def test_render_frame_57_alone_equals_it_inside_an_animation(bpy_empty, tmp_path, monkeypatch):
     from engine_scene import add_camera, read_exr_parts, set_output, setup_render
 
-    from addon.blender import engine
+    from addon.blender.render import engine
 
     bpy = bpy_empty
     build_scene(bpy)

@@ -95,7 +95,7 @@ def test_move_and_remove_keep_keyframes_with_their_effect(bpy_empty):
     first, second = _add(bpy, obj, "REVEAL"), _add(bpy, obj, "TWIST")
     first.keyframe_insert("progress", frame=1)
     second.keyframe_insert("twist", frame=1)
-    from addon.blender.effect_ops import _channel_fcurves
+    from addon.blender.ops.effects import _channel_fcurves
 
     def paths():
         return sorted(c.data_path for c in _channel_fcurves(obj))
@@ -137,7 +137,7 @@ def test_hidden_animated_morph_target_follows_its_keyframes(bpy_empty):
 
 
 def test_base_cache_lets_deleted_data_go_and_shares_linked_duplicates(bpy_empty):
-    from addon.blender import evaluate
+    from addon.blender.evaluate import items as evaluate
 
     bpy = bpy_empty
     doomed = add_object("doomed", grid_splats(seed=5))

@@ -27,7 +27,7 @@ def test_png_with_standard_view_gives_the_capture_colour(bpy_empty, tmp_path):
     bpy.ops.render.render(write_still=True)
     image = read_image(tmp_path / "flat.png")
     assert image.shape == (32, 64, 4) and image.dtype == np.uint8
-    from addon.blender.camera import camera_from_blender
+    from addon.blender.render.camera import camera_from_blender
 
     uv = camera_from_blender(scene, scene.camera).project(np.array(centres))[:, :2]
     for (u, v), want in zip(uv, want_255):
@@ -150,7 +150,7 @@ def test_border_and_percentage_follow_blender(bpy_empty, tmp_path):
 
 
 def test_frame_step_and_renderer_reused_across_frames(bpy_empty, tmp_path):
-    from addon.blender import engine
+    from addon.blender.render import engine
 
     bpy = bpy_empty
     add_splats(bpy, "s", flat_splats([(0, 0, 0)], [(0.5, 0.5, 0.5)]))
@@ -201,7 +201,7 @@ def test_missing_camera_is_one_clear_error(bpy_empty):
 
 def test_blender_output_panels_show_for_the_engine(_bpy_registered):
     from addon import register, unregister
-    from addon.blender.render_panel import BUILTIN_PANELS
+    from addon.blender.ui.render_panel import BUILTIN_PANELS
 
     bpy = _bpy_registered
     found = [getattr(bpy.types, name) for name in BUILTIN_PANELS if hasattr(bpy.types, name)]

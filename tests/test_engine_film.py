@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from addon.blender.render_film import (BACKGROUND_DEPTH, Region, blender_depth, bottom_up,
+from addon.blender.render.film import (BACKGROUND_DEPTH, Region, blender_depth, bottom_up,
                                        composite_over, region_camera, render_region,
                                        to_scene_linear)
 from addon.core.colorspace import srgb_to_linear

@@ -20,8 +20,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from addon.blender.engine import world_background
-from addon.blender.render_film import BACKGROUND_DEPTH
+from addon.blender.render.engine import world_background
+from addon.blender.render.film import BACKGROUND_DEPTH
 from engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
 from viewport_scene import psnr
 
@@ -29,8 +29,8 @@ MIN_PSNR = 60.0
 
 
 def test_both_paths_match_the_reference(bpy_empty, testdata, tmp_path):
-    from addon.blender import render_paths
-    from addon.blender.render_panel import path_text
+    from addon.blender.render import paths as render_paths
+    from addon.blender.ui.render_panel import path_text
 
     bpy = bpy_empty
     scene = two_object_scene(bpy, testdata)
@@ -51,7 +51,7 @@ def test_both_paths_match_the_reference(bpy_empty, testdata, tmp_path):
 
 def test_auto_falls_back_when_no_gl_context(bpy_empty, testdata, tmp_path, monkeypatch, caplog):
     """An unknown glcontext backend fails as a missing driver does: the frame still renders."""
-    from addon.blender import render_paths
+    from addon.blender.render import paths as render_paths
 
     bpy = bpy_empty
     monkeypatch.setenv("SPLATLINE_GL_BACKEND", "no-such-backend")
@@ -96,7 +96,7 @@ def test_auto_falls_back_when_moderngl_is_not_installed(testdata, tmp_path):
         register()
         from engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
         from viewport_scene import psnr
-        from addon.blender import render_paths
+        from addon.blender.render import paths as render_paths
         scene = two_object_scene(bpy, pathlib.Path({str(testdata)!r}), 96, 72)
         rgba, _, _ = render_exr(bpy, scene, pathlib.Path({str(tmp_path / "auto")!r}), "AUTO")
         assert "moderngl" not in sys.modules
@@ -162,7 +162,7 @@ def test_gpu_path_percentage_border_and_world(bpy_empty, testdata, tmp_path):
 def test_gpu_path_animation_reuses_one_renderer(bpy_empty, testdata, tmp_path):
     """Frames of one job share the renderer (textures uploaded once), each frame its own
     view; the job's end releases it."""
-    from addon.blender import engine
+    from addon.blender.render import engine
     from engine_scene import orbit_keys, set_output
 
     bpy = bpy_empty

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from addon.blender.evaluate import collect_items
-from addon.blender.pointcloud import new_pointcloud
+from addon.blender.evaluate.items import collect_items
+from addon.blender.data.pointcloud import new_pointcloud
 from addon.core import formats
 from viewport_scene import blob
 
@@ -60,7 +60,7 @@ def test_viewport_keeps_linked_and_local_apart(twins):
 
 
 def test_bake_and_export_write_the_objects_own_splats(twins, tmp_path):
-    from addon.blender.sequence_io import bake_frames, export_evaluated
+    from addon.blender.data.sequences import bake_frames, export_evaluated
 
     bpy, local, linked, local_splats, linked_splats = twins
     path = tmp_path / "linked.ply"

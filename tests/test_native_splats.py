@@ -12,7 +12,7 @@ from viewport_scene import blob, camera_for
 
 
 def _items(bpy):
-    from addon.blender.evaluate import collect_items
+    from addon.blender.evaluate.items import collect_items
 
     bpy.context.view_layer.update()
     return {item.key[0]: item for item in collect_items(bpy.context.evaluated_depsgraph_get())}
@@ -23,8 +23,8 @@ def _band4(n, seed=3):
 
 
 def test_native_pointcloud_reads_and_renders_like_a_splatline_import(bpy_empty):
-    from addon.blender.evaluate import is_splat_object
-    from addon.blender.pointcloud import new_pointcloud_object
+    from addon.blender.evaluate.items import is_splat_object
+    from addon.blender.data.pointcloud import new_pointcloud_object
     from addon.core import reference
 
     bpy = bpy_empty
@@ -51,7 +51,7 @@ def test_native_pointcloud_reads_and_renders_like_a_splatline_import(bpy_empty):
 
 
 def test_degree4_pointcloud_keeps_its_data_and_logs_what_is_not_rendered(bpy_empty, caplog):
-    from addon.blender.pointcloud import dropped_sh_names, splats_from_pointcloud
+    from addon.blender.data.pointcloud import dropped_sh_names, splats_from_pointcloud
 
     bpy = bpy_empty
     splats = blob(20, 3, seed=5, centre=(0, 0, 0), spread=0.2)
@@ -82,7 +82,7 @@ def test_native_pointcloud_animates_through_look_keyframes(bpy_empty):
 
 
 def test_native_pointcloud_renders_through_the_splatline_engine(bpy_empty, tmp_path):
-    from addon.blender.pointcloud import new_pointcloud_object
+    from addon.blender.data.pointcloud import new_pointcloud_object
     from engine_scene import add_camera, flat_splats, read_image, set_output, setup_render
 
     bpy = bpy_empty
@@ -109,7 +109,7 @@ def _rna(*identifiers):
 
 
 def test_blender_draws_natively_only_a_pointcloud_set_to_its_splat_mode(bpy_empty):
-    from addon.blender import native
+    from addon.blender.data import native
 
     bpy = bpy_empty
     rna = _rna("POINTS", "SPLATS")
@@ -124,8 +124,8 @@ def test_blender_draws_natively_only_a_pointcloud_set_to_its_splat_mode(bpy_empt
 
 
 def test_viewport_overlay_skips_what_blender_draws_itself(bpy_empty, monkeypatch):
-    from addon.blender import native
-    from addon.blender.pointcloud import new_pointcloud_object
+    from addon.blender.data import native
+    from addon.blender.data.pointcloud import new_pointcloud_object
     from addon.blender.viewport.scene_items import SceneItems
 
     bpy = bpy_empty
@@ -141,8 +141,8 @@ def test_viewport_overlay_skips_what_blender_draws_itself(bpy_empty, monkeypatch
 
 
 def test_file_handler_is_one_named_choice_beside_blenders_own(bpy_empty):
-    from addon.blender import native
-    from addon.blender.io_ops import IO_FH_splatline_gaussians as handler
+    from addon.blender.data import native
+    from addon.blender.ops.io import IO_FH_splatline_gaussians as handler
 
     bpy = bpy_empty
     assert set(handler.bl_file_extensions.split(";")) == {".ply", ".splat", ".spz", ".sog"}

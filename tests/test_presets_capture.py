@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import bpy  # noqa: F401
 
-from addon.blender import effect_presets
-from addon.blender.evaluate import collect_items
-from addon.blender.import_splats import import_file
-from addon.blender.presets import find_preset
+from addon.blender.ops import effect_presets
+from addon.blender.evaluate.items import collect_items
+from addon.blender.data.files import import_file
+from addon.blender.ops.presets import find_preset
 from addon.core import effect_presets as core
 from addon.core.sh import sh_to_rgb
 

@@ -11,9 +11,9 @@ import pytest
 import bpy  # noqa: F401  (puts bpy_extras on the path)
 from bpy_extras import anim_utils
 
-from addon.blender import effect_presets, presets
-from addon.blender.evaluate import collect_items
-from addon.blender.pointcloud import new_pointcloud_object
+from addon.blender.ops import effect_presets, presets
+from addon.blender.evaluate.items import collect_items
+from addon.blender.data.pointcloud import new_pointcloud_object
 from addon.core import effect_presets as core
 from addon.core import procedural
 

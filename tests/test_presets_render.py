@@ -7,7 +7,7 @@ import pytest
 import numpy as np
 from engine_scene import add_camera, add_splats, flat_splats, setup_render
 
-from addon.blender import presets
+from addon.blender.ops import presets
 
 EXPECT = {
     "exr_half_multilayer": dict(media_type="MULTI_LAYER_IMAGE", file_format="OPEN_EXR_MULTILAYER",

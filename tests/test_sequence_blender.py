@@ -30,7 +30,7 @@ def write_frames(directory, count=N_FRAMES, n=40, degree=1, first=1):
 
 
 def item_of(bpy, obj, frame):
-    from addon.blender.evaluate import collect_items
+    from addon.blender.evaluate.items import collect_items
 
     bpy.context.scene.frame_set(frame)
     items = [i for i in collect_items(bpy.context.evaluated_depsgraph_get()) if i.key[0] == obj.name]
@@ -62,13 +62,13 @@ def frames(tmp_path):
 
 @pytest.fixture
 def seq_import(bpy_empty):
-    from addon.blender.sequence_io import import_sequence
+    from addon.blender.data.sequences import import_sequence
 
     return lambda path, **kw: import_sequence(bpy_empty.context, path, **kw)
 
 
 def test_import_plays_each_frame_exactly(bpy_empty, frames, seq_import):
-    from addon.blender.pointcloud import splats_from_pointcloud
+    from addon.blender.data.pointcloud import splats_from_pointcloud
 
     paths, truth = frames
     obj = seq_import(paths[0].parent)
@@ -148,7 +148,7 @@ def _fcurves(obj):
 
 
 def test_missing_frame_holds_previous_and_is_reported_once(bpy_empty, frames, seq_import, caplog):
-    from addon.blender import sequence_runtime
+    from addon.blender.evaluate import sequence_frames as sequence_runtime
 
     paths, truth = frames
     obj = seq_import(paths[0].parent)
@@ -215,7 +215,8 @@ def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):
 
 
 def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_import):
-    from addon.blender import sequence_ops, sequence_runtime
+    from addon.blender.ops import sequence as sequence_ops
+    from addon.blender.evaluate import sequence_frames as sequence_runtime
 
     paths, truth = frames
     obj = seq_import(paths[0].parent)
@@ -268,7 +269,7 @@ def test_splat_format_frames_and_subframes(bpy_empty, tmp_path, seq_import):
     obj = seq_import(tmp_path / "sp", align="SCENE_START")
     obj.splatline.sequence.speed = 2.0
     scene = bpy_empty.context.scene
-    from addon.blender.evaluate import collect_items
+    from addon.blender.evaluate.items import collect_items
 
     for frame, subframe, want in ((1, 0.0, 0), (1, 0.5, 1), (2, 0.25, 2), (2, 0.5, 3), (3, 0.0, 4)):
         scene.frame_set(frame, subframe=subframe)

@@ -84,7 +84,7 @@ def test_background_sort_draws_the_last_order_then_catches_up(gpu_ready):
 
 
 def _splat_object(bpy, name, splats):
-    from addon.blender.pointcloud import new_pointcloud
+    from addon.blender.data.pointcloud import new_pointcloud
 
     obj = bpy.data.objects.new(name, new_pointcloud(name, splats))
     bpy.context.scene.collection.objects.link(obj)
@@ -182,7 +182,7 @@ def test_register_unregister_three_times_leaves_nothing(_bpy_registered):
 
 def test_viewport_draws_after_an_f12_render(bpy_empty, gpu_ready, tmp_path):
     """The offscreen renderer's own GL context must leave Blender's GPU context usable."""
-    from addon.blender.evaluate import collect_items
+    from addon.blender.evaluate.items import collect_items
     from addon.core import reference
     from addon.core.scene import RenderOptions
     from engine_scene import add_camera, add_splats, setup_render
@@ -221,7 +221,7 @@ def test_selection_does_not_reread_but_a_look_edit_does(bpy_empty):
 
 
 def test_hidden_objects_and_collections_are_not_drawn(bpy_empty):
-    from addon.blender import evaluate
+    from addon.blender.evaluate import items as evaluate
     from addon.blender.viewport.scene_items import SceneItems
 
     bpy = bpy_empty
@@ -329,7 +329,7 @@ def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
     moving any of them by hand (no frame change) must show in the viewport's items, while
     a splat object without effects still reuses its data on a transform-only move."""
     from addon.blender import viewport
-    from addon.blender.evaluate import item_for
+    from addon.blender.evaluate.items import item_for
     from animation_scene import add_object, grid_splats
 
     bpy = bpy_empty

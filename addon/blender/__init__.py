@@ -6,18 +6,20 @@ and unregister runs in reverse.
 import importlib
 
 _MODULES = (
-    "properties",     # Object.splatline and Scene.splatline property groups
-    "io_ops",         # import/export operators, menus, FileHandler
-    "camera_track_ops",  # File > Import > Splat Camera Track
-    "sequence_ops",   # splat sequence import, bake
-    "effect_ops",     # effect stack operators
-    "viewport",       # SpaceView3D draw handler
-    "engine",         # the Splatline RenderEngine
-    "panels",         # Object / Render properties panels, N sidebar
-    "presets",        # render-output preset menu and operators
-    "effect_presets", # effect preset menu (appended to the effect stack panel)
-    "menus",          # Object > Splatline (effect and bake operators, for menus and F3)
+    "props.root",         # Object.splatline and Scene.splatline property groups
+    "ops.io",             # import/export operators, menus, FileHandler
+    "ops.camera_track",   # File > Import > Splat Camera Track
+    "ops.sequence",       # splat sequence import, bake
+    "ops.effects",        # effect stack operators
+    "viewport",           # SpaceView3D draw handler
+    "ui.viewport",        # the viewport's display and statistics panels
+    "render.engine",      # the Splatline RenderEngine
+    "ui.sidebar",         # the N sidebar's Splatline tab
+    "ops.presets",        # render-output preset menu and operators
+    "ops.effect_presets", # effect preset menu (appended to the effect stack panel)
+    "ui.menus",           # Object > Splatline (effect and bake operators, for menus and F3)
 )
+
 
 
 def _modules():

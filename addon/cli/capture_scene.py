@@ -52,7 +52,7 @@ def frame_range(camera, frames=None) -> tuple[int, int]:
 def add_camera(bpy, objects, camera, frames=None) -> None:
     """Key `camera` (a mode or a CameraTrack) on the scene, framing `objects` (splat
     objects; a track is tied to the first one's frame). frames: (start, end) or None."""
-    from ..blender import capture_camera
+    from ..blender.data import capture_camera
 
     scene = bpy.context.scene
     if isinstance(camera, str):  # an orbit turns once over the range it is given, or the scene's
@@ -70,7 +70,7 @@ def add_camera(bpy, objects, camera, frames=None) -> None:
 
 def build(bpy, path, camera, frames=None):
     """Import `path` into the (empty) scene, add the camera; returns the scene."""
-    from ..blender.import_splats import import_file
+    from ..blender.data.files import import_file
     from ..core.errors import SplatFormatError
 
     scene = bpy.context.scene

@@ -63,7 +63,7 @@ def _check(args) -> tuple[int, int]:
 
 
 def _setup_render(bpy, scene, width, height, z_pass):
-    from ..blender.presets import apply_render_preset
+    from ..blender.ops.presets import apply_render_preset
 
     scene.render.engine = "SPLATLINE"
     scene.render.resolution_x, scene.render.resolution_y = width, height
@@ -88,7 +88,7 @@ def _clear_old_frames(folder: str) -> None:
 
 
 def _render_exr(bpy, scene) -> list[float]:
-    from ..blender import render_stop
+    from ..blender.render import stop as render_stop
 
     total = scene.frame_end - scene.frame_start + 1
     with _Progress(bpy, total) as progress, _StopOnSigint(render_stop):
@@ -110,7 +110,7 @@ def run(args) -> int:
     from . import blender_session
 
     bpy = blender_session.start()
-    from ..blender import demo_scene, demo_video
+    from ..blender.demo import scene as demo_scene, video as demo_video
 
     scene = bpy.context.scene
     what = args.file or f"a procedural torus knot of {args.splats:,} splats"

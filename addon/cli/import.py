@@ -58,7 +58,7 @@ def run(args) -> int:
     from .blender_session import start
 
     bpy = start()
-    from ..blender.import_splats import import_file_with_report
+    from ..blender.data.files import import_file_with_report
 
     imported = []
     for path in args.files:
@@ -90,8 +90,8 @@ def run(args) -> int:
 
 
 def _apply_effect_presets(bpy, names, objects) -> None:
-    from ..blender.effect_presets import apply_preset
-    from ..blender.presets import find_preset
+    from ..blender.ops.effect_presets import apply_preset
+    from ..blender.ops.presets import find_preset
     from ..core import effect_presets
 
     frame = bpy.context.scene.frame_start
@@ -113,7 +113,7 @@ def _apply_effect_presets(bpy, names, objects) -> None:
 
 
 def _degree(obj) -> int:
-    from ..blender.pointcloud import sh_count_in
+    from ..blender.data.pointcloud import sh_count_in
     from ..core.splats import sh_degree_for
 
     return sh_degree_for(sh_count_in(obj.data.attributes))

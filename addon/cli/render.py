@@ -220,7 +220,7 @@ def _prepare(bpy, args):
 
 
 def _apply_preset(name: str) -> None:
-    from ..blender.presets import apply_render_preset
+    from ..blender.ops.presets import apply_render_preset
     try:
         apply_render_preset(name)
     except KeyError as exc:
@@ -278,7 +278,7 @@ def run(args) -> int:
     _check_args(args)
     bpy = _open_scene(args)
     os.makedirs(args.out, exist_ok=True)  # after the input is known good: nothing half-made
-    from ..blender import render_stop
+    from ..blender.render import stop as render_stop
     scene = _prepare(bpy, args)
     total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))
     print(f"rendering {total} frame(s) {scene.frame_start}-{scene.frame_end} of {args.blend} "

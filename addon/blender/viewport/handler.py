@@ -14,7 +14,7 @@ import traceback
 import bpy
 import gpu
 
-from . import draw_items
+from .draw import draw_items
 from .renderer import DrawSettings, ViewportRenderer
 from .scene_items import SceneItems
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import draw_items
+from .draw import draw_items
 from .matrices import projection_matrix
 from .renderer import DrawSettings, ViewportRenderer
 

@@ -14,7 +14,8 @@ import numpy as np
 
 import bpy
 
-from .. import evaluate, native
+from ..evaluate import items as evaluate
+from ..data import native
 from .renderer import ItemDisplay
 
 

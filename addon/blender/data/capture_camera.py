@@ -1,0 +1,140 @@
+"""Cameras for splat objects: an orbit or front framing, or a SuperSplat camera track.
+
+Thin: the framing math and the track reader live in core (framing.py, camtrack.py); this
+module turns their matrices into a keyed Blender camera. Each key sets matrix_world and
+keys location and rotation (euler, kept continuous), so the camera edits like a hand-keyed one.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import bpy
+from mathutils import Matrix
+
+from ...core import camtrack, framing
+from .files import object_axes
+from .pointcloud import splats_from_pointcloud
+
+CAMERA_NAME = "Splat Camera"
+LENS_MM, SENSOR_MM = 50.0, 36.0
+
+
+def splat_world_points(objects) -> np.ndarray:
+    """Every object's splat centres in world space (float64)."""
+    parts = []
+    for obj in objects:
+        local = splats_from_pointcloud(obj.data).positions.astype(np.float64)
+        matrix = np.array(obj.matrix_world, np.float64)
+        parts.append(local @ matrix[:3, :3].T + matrix[:3, 3])
+    return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+
+def new_camera(scene, name=CAMERA_NAME):
+    """A camera object linked to the scene and made its active camera."""
+    data = bpy.data.cameras.new(name)
+    data.lens, data.sensor_width, data.sensor_fit = LENS_MM, SENSOR_MM, "AUTO"
+    obj = bpy.data.objects.new(name, data)
+    scene.collection.objects.link(obj)
+    scene.camera = obj
+    return obj
+
+
+def _tan_halves(scene, data) -> tuple[float, float]:
+    """tan of the half fields of view the frame will have (sensor fit AUTO)."""
+    width = scene.render.resolution_x * scene.render.pixel_aspect_x
+    height = scene.render.resolution_y * scene.render.pixel_aspect_y
+    larger = data.sensor_width / 2.0 / data.lens
+    return (larger, larger * height / width) if width >= height else (larger * width / height, larger)
+
+
+def add_framing_camera(context, objects, mode="orbit", frame_start=None, frame_end=None):
+    """A camera framing `objects` (splat objects): "orbit" keys one full turn over the frame
+    range, a key a frame; "front" is one still key. Returns the camera object."""
+    if mode not in framing.MODES:
+        raise ValueError(f"camera mode {mode!r} is not one of {framing.MODES}")
+    scene = context.scene
+    context.view_layer.update()  # matrix_world of freshly imported objects
+    start = scene.frame_start if frame_start is None else frame_start
+    end = scene.frame_end if frame_end is None else frame_end
+    bounds = framing.robust_bounds(splat_world_points(objects))
+    up, forward = framing.capture_axes(object_axes(objects[0]), np.array(objects[0].matrix_world))
+    camera = new_camera(scene)
+    distance = framing.fit_distance(bounds, *_tan_halves(scene, camera.data))
+    camera.data.clip_start, camera.data.clip_end = framing.clip_range(bounds, distance)
+    if mode == "front":
+        poses = [(start, framing.front_pose(bounds, up, forward, distance))]
+    else:
+        count = end - start + 1
+        poses = list(zip(range(start, end + 1), framing.orbit_poses(bounds, up, forward, distance, count)))
+    for frame, matrix in poses:
+        _key(camera, frame, matrix)
+    _linear(camera)
+    return camera
+
+
+def add_track_camera(context, track: camtrack.CameraTrack, reference=None, frame_offset=None,
+                     name=CAMERA_NAME):
+    """A camera keyed from a camera track. The track's world is tied to `reference`, a splat
+    object (its matrix_world, axis rotation included); without one, to an unmoved RDF
+    capture. Key k lands on frame frame_offset + k (default: the scene's start frame)."""
+    scene = context.scene
+    context.view_layer.update()  # the reference's matrix_world, if it was just imported or moved
+    capture_to_world = _capture_to_world(reference)
+    poses = camtrack.blender_poses(track, capture_to_world)
+    offset = scene.frame_start if frame_offset is None else frame_offset
+    camera = new_camera(scene, name)
+    camera.data.sensor_fit = "VERTICAL" if track.fov_fit == camtrack.FOV_VERTICAL else "AUTO"
+    camera.data.sensor_height = SENSOR_MM
+    _track_clip(camera.data, poses, capture_to_world, reference)
+    for frame, matrix, fov in poses:
+        camera.data.lens = SENSOR_MM / 2.0 / math.tan(math.radians(fov) / 2.0)
+        camera.data.keyframe_insert("lens", frame=offset + frame)
+        _key(camera, offset + frame, matrix)
+    return camera  # Blender's Bezier between sparse keys, as SuperSplat eases with a spline
+
+
+def _capture_to_world(reference) -> np.ndarray:
+    """Matrix from the capture's RDF frame to the world: the object's matrix with its file
+    axes undone (object_axes says which frame its data holds), or the plain RDF rotation."""
+    from ...core.axes import matrix_for
+
+    if reference is None:
+        matrix = np.eye(4)
+        matrix[:3, :3] = matrix_for("RDF")
+        return matrix
+    file_from_rdf = np.eye(4)
+    axes = object_axes(reference)
+    file_from_rdf[:3, :3] = matrix_for(axes).T @ matrix_for("RDF")
+    return np.array(reference.matrix_world, np.float64) @ file_from_rdf
+
+
+def _track_clip(data, poses, capture_to_world, reference) -> None:
+    """Clip planes that hold the scene the track looks at: from the eye-to-target distances,
+    and the capture's extent when a reference object is given."""
+    reach = max(float(np.linalg.norm(m[:3, 3])) for _, m, _ in poses) + 1.0
+    if reference is not None:
+        reach += framing.robust_bounds(splat_world_points([reference])).radius
+    data.clip_start, data.clip_end = 0.01, max(100.0, 4.0 * reach)
+
+
+def _key(camera, frame, matrix) -> None:
+    previous = camera.rotation_euler.copy() if camera.animation_data else None
+    camera.matrix_world = Matrix(np.asarray(matrix).tolist())
+    if previous is not None:  # no 360 degree jumps between keys
+        camera.rotation_euler = camera.rotation_euler.to_matrix().to_euler("XYZ", previous)
+    camera.keyframe_insert("location", frame=frame)
+    camera.keyframe_insert("rotation_euler", frame=frame)
+
+
+def _linear(camera) -> None:
+    """Linear between keys: a key a frame needs no easing (Blender's default Bezier would
+    ease in and out of every frame of the orbit)."""
+    from bpy_extras import anim_utils
+
+    anim = camera.animation_data
+    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
+    for fcurve in bag.fcurves if bag is not None else ():
+        for point in fcurve.keyframe_points:
+            point.interpolation = "LINEAR"

@@ -1,0 +1,129 @@
+"""Splat files <-> splat objects: the bpy-facing import and export used by the operators,
+the command line and the other parts of the add-on.
+
+A splat object is a POINTCLOUD object with the DESIGN.md attribute schema. Its data stays
+in the file's own frame; the file's axis convention is the object's rotation. The source
+path and convention are kept as custom properties so export can write the same frame.
+"""
+from __future__ import annotations
+
+import os
+
+import bpy
+
+from ...core import formats
+from ...core.axes import euler_for
+from ...core.errors import SplatFormatError
+from ...core.reframe import reframe
+from ...core.splats import AXES, AXES_RDF
+from .pointcloud import new_pointcloud_object, splats_from_pointcloud
+
+SOURCE_PROP = "splatline_source"
+AXES_PROP = "splatline_axes"
+AXES_ITEMS = ("AUTO",) + AXES
+BAD_POLICIES = ("fix", "drop", "error")
+WRITE_AXES = formats.WRITE_AXES  # the convention each writable format uses (one table, in core)
+
+
+def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad="fix", max_splats=None):
+    """(SplatSet, ReadReport) after the import options. max_count 0 means no limit;
+    max_splats is the reader's splat budget (formats.read_with_report).
+    A file, or a selection, with no splats is an error: there would be nothing to animate."""
+    if bad not in BAD_POLICIES:
+        raise ValueError(f"bad-value policy {bad!r} is not one of {BAD_POLICIES}")
+    splats, report = formats.read_with_report(
+        path, sh_degree=max_sh_degree, min_opacity=min_opacity if min_opacity > 0 else None,
+        max_count=max_count if max_count > 0 else None, bad=bad, max_splats=max_splats)
+    if report.count_in_file == 0:
+        raise SplatFormatError(path, "holds no splats (0 vertices)")
+    if splats.count == 0:
+        raise SplatFormatError(path, f"no splats left after the import options (min opacity "
+                                     f"{min_opacity:g}, max count {max_count}) of {report.count_in_file}")
+    return splats, report
+
+
+def object_name(path) -> str:
+    path = os.fspath(path)
+    if os.path.basename(path).lower() == "meta.json":  # an unbundled SOG: name it by its folder
+        path = os.path.dirname(os.path.abspath(path))
+    return os.path.splitext(os.path.basename(path))[0] or "Splats"
+
+
+def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, max_count=0,
+                            axes="AUTO", collection=None, bad="fix", progress=None, max_splats=None):
+    """import_file, also returning the reader's ReadReport (bad-value counts, file degree).
+    progress, if given, is called with the fraction done (0..1) after each stage."""
+    if axes not in AXES_ITEMS:
+        raise ValueError(f"axes {axes!r} is not one of {AXES_ITEMS}")
+    splats, report = read_for_import(path, max_sh_degree=max_sh_degree, min_opacity=min_opacity,
+                                     max_count=max_count, bad=bad, max_splats=max_splats)
+    if progress is not None:
+        progress(0.6)  # reading is about 60% of an import (bench/import_bench.py, read column)
+    if axes != "AUTO":
+        splats.axes = axes
+    if context.mode != "OBJECT":  # Blender's convert operator, used to build it, needs object mode
+        bpy.ops.object.mode_set(mode="OBJECT")
+    target = collection or context.collection or context.scene.collection
+    obj = new_pointcloud_object(object_name(path), splats, target)
+    try:
+        obj.rotation_mode = "XYZ"
+        obj.rotation_euler = euler_for(splats.axes)
+        obj[SOURCE_PROP] = os.path.abspath(os.fspath(path))
+        obj[AXES_PROP] = splats.axes
+        _make_active(context, obj)
+    except BaseException:
+        pointcloud = obj.data
+        bpy.data.objects.remove(obj)
+        bpy.data.pointclouds.remove(pointcloud)
+        raise
+    if progress is not None:
+        progress(1.0)
+    return obj, report
+
+
+def import_file(context, path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, axes="AUTO",
+                collection=None, bad="fix") -> bpy.types.Object:
+    """Read a splat file into a new PointCloud object named after the file, linked into
+    `collection` (default: the active one), active and selected.
+
+    Options: SH degree cap (no sh attributes above it are stored), opacity prune, count
+    limit by importance (0 = none), axis convention override ("AUTO" = the file's), and the
+    NaN/Inf policy ("fix", "drop", "error"). Raises SplatFormatError naming the file; on any
+    failure nothing new is left in bpy.data.
+    """
+    return import_file_with_report(
+        context, path, max_sh_degree=max_sh_degree, min_opacity=min_opacity, max_count=max_count,
+        axes=axes, collection=collection, bad=bad)[0]
+
+
+def _make_active(context, obj) -> None:
+    view_layer = context.view_layer
+    if view_layer is None or obj.name not in view_layer.objects:
+        return  # linked into an excluded collection: nothing to select
+    obj.select_set(True)
+    view_layer.objects.active = obj
+
+
+def object_axes(obj) -> str:
+    axes = obj.get(AXES_PROP, AXES_RDF)
+    return axes if axes in AXES else AXES_RDF
+
+
+def object_splats(obj, evaluated=False, depsgraph=None):
+    """The object's splats in its file frame: stored data, or evaluated (modifiers) data."""
+    data = obj.data
+    if evaluated:
+        depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+        data = obj.evaluated_get(depsgraph).data
+    return splats_from_pointcloud(data, object_axes(obj))
+
+
+def export_object(obj, path, evaluated=False, depsgraph=None) -> None:
+    """Write a splat object's data in the format its path names, object-local (the object's transform,
+    which carries the axis convention, is not applied). Data stored in another convention
+    than the format's is re-expressed in the format's. Raises SplatFormatError."""
+    fmt = formats.format_for_output(path)
+    splats = object_splats(obj, evaluated, depsgraph)
+    if splats.count == 0:
+        raise SplatFormatError(path, f"object {obj.name!r} holds no splats to export")
+    formats.write(path, reframe(splats, WRITE_AXES[fmt]), fmt)

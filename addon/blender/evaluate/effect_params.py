@@ -1,0 +1,234 @@
+"""Blender effect items -> core effect parameters, at one frame of one depsgraph.
+
+Gizmo frames: an Empty's matrix relative to the splat object; without one, world-aligned
+axes at the object's origin (so a plane's 'height' is world Z and units are world units).
+Morph targets are the target object's base splats mapped into the source object's space.
+"""
+from __future__ import annotations
+
+import dataclasses
+import threading
+
+import numpy as np
+
+from ...core import effects as fx
+from ...core.effects.morph import pair
+from ...core.reframe import sh_rotation
+from ...core.splats import SplatSet, sh_degree_for
+
+POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
+TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through keyframes
+
+
+def evaluated(obj, depsgraph):
+    """The depsgraph's copy of obj (stale for hidden objects: see world_matrix)."""
+    if obj is None:
+        return None
+    try:
+        return obj.original.evaluated_get(depsgraph)
+    except (RuntimeError, ReferenceError):
+        return obj
+
+
+def shown_in(obj, depsgraph) -> bool:
+    """Whether the depsgraph evaluates obj (hidden objects keep a stale evaluated copy)."""
+    name = obj.original.name_full
+    return any(o.original.name_full == name for o in depsgraph.objects)
+
+
+def world_matrix(obj, depsgraph) -> np.ndarray:
+    """obj's world matrix at the depsgraph's frame. For an object the depsgraph does not
+    evaluate (hidden; its evaluated copy is stale) the matrix is rebuilt from its keyframed
+    location/rotation/scale at the frame and its parents' (constraints and drivers of
+    hidden objects are not evaluated)."""
+    if shown_in(obj, depsgraph):
+        return np.array(evaluated(obj, depsgraph).matrix_world, np.float64)
+    local = basis_at(obj, depsgraph.scene_eval.frame_float)
+    if obj.parent is None:
+        return local
+    return world_matrix(obj.parent, depsgraph) @ np.array(obj.matrix_parent_inverse, np.float64) @ local
+
+
+def channel_fcurves(obj):
+    """Every F-curve of obj's action (layered actions of Blender 4.4+) and its drivers."""
+    anim = obj.animation_data
+    if anim is None:
+        return []
+    curves = list(anim.drivers)
+    action = anim.action
+    if action is not None:
+        if getattr(action, "is_action_layered", False):
+            for layer in action.layers:
+                for strip in layer.strips:
+                    bag = strip.channelbag(anim.action_slot) if anim.action_slot else None
+                    if bag is not None:
+                        curves.extend(bag.fcurves)
+        elif hasattr(action, "fcurves"):
+            curves.extend(action.fcurves)
+    return curves
+
+
+def _transform_curves(obj) -> dict:
+    """{(data_path, index): F-curve} of obj's own transform channels."""
+    wanted = {"location", "rotation_euler", "rotation_quaternion", "scale"}
+    return {(c.data_path, c.array_index): c for c in channel_fcurves(obj)
+            if c.data_path in wanted and not c.mute}
+
+
+def basis_at(obj, frame: float) -> np.ndarray:
+    """obj's local matrix at `frame`: its keyframed location/rotation/scale evaluated there
+    (un-keyed channels keep their stored values). For objects no depsgraph evaluates."""
+    from mathutils import Euler, Matrix, Quaternion, Vector
+
+    curves = _transform_curves(obj)
+
+    def channel(path, current):
+        return [curves[(path, i)].evaluate(frame) if (path, i) in curves else v
+                for i, v in enumerate(current)]
+
+    location = Vector(channel("location", obj.location))
+    scale = channel("scale", obj.scale)
+    if obj.rotation_mode == "QUATERNION":
+        rotation = Quaternion(channel("rotation_quaternion", obj.rotation_quaternion)).normalized()
+    elif obj.rotation_mode == "AXIS_ANGLE":
+        angle, *axis = obj.rotation_axis_angle
+        rotation = Quaternion(Vector(axis), angle)
+    else:
+        rotation = Euler(channel("rotation_euler", obj.rotation_euler), obj.rotation_mode).to_quaternion()
+    matrix = Matrix.LocRotScale(location, rotation, Vector(scale))
+    return np.array(matrix, np.float64)
+
+
+def relative_to(world: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """inv(world) @ other, also for a singular world (an object scaled to 0)."""
+    return fx.common.inverse(world) @ other
+
+
+def gizmo_frame(effect, world: np.ndarray, depsgraph) -> np.ndarray:
+    gizmo = world_matrix(effect.gizmo, depsgraph) if effect.gizmo is not None else None
+    return field_frame(world, gizmo)
+
+
+def field_frame(world: np.ndarray, gizmo_world=None) -> np.ndarray:
+    """A field's frame relative to the object (object <- field): the gizmo's, or without
+    one world-aligned axes at the object's origin. Presets measure bounds in it too."""
+    if gizmo_world is None:
+        gizmo_world = np.eye(4)
+        gizmo_world[:3, 3] = world[:3, 3]
+    return relative_to(world, gizmo_world)
+
+
+def _stops(effect):
+    stops = [(0.0, tuple(effect.color_a)), (1.0, tuple(effect.color_b))]
+    if effect.use_color_mid:
+        stops.insert(1, (float(effect.mid_position), tuple(effect.color_mid)))
+    return tuple(stops)
+
+
+def build(effect, frame: np.ndarray, fps: float, morph_target=None):
+    """Core params for one enabled effect item (morph_target: (SplatSet, Pairing) or None)."""
+    common = dict(enabled=bool(effect.enabled), amount=float(effect.amount), frame=frame)
+    kind = effect.type
+    if kind == "REVEAL":
+        return fx.Reveal(**common, shape=effect.reveal_shape, progress=effect.progress,
+                         width=effect.edge_width, invert=effect.invert, shrink=effect.shrink,
+                         glow_color=tuple(effect.glow_color), glow_strength=effect.glow_strength,
+                         frequency=effect.frequency, seed=effect.seed)
+    if kind == "DISPLACE":
+        return fx.Displace(**common, amplitude=effect.amplitude, frequency=effect.frequency,
+                           speed=effect.speed, seed=effect.seed)
+    if kind == "EXPLODE":
+        return fx.Explode(**common, mode=effect.explode_mode, strength=effect.strength,
+                          spread=effect.spread, spin=effect.spin, gravity=effect.gravity,
+                          start=effect.start_frame / fps, fade=effect.fade, seed=effect.seed)
+    if kind == "TWIST":
+        return fx.Twist(**common, twist=effect.twist, swirl=effect.swirl, radius=effect.swirl_radius)
+    if kind == "GRADE":
+        return fx.Grade(**common, field=effect.grade_field, stops=_stops(effect),
+                        low=effect.range_low, high=effect.range_high, mode=effect.grade_mode,
+                        frequency=effect.frequency, seed=effect.seed)
+    if kind == "MORPH":
+        target, pairing = morph_target if morph_target is not None else (None, None)
+        return fx.Morph(**common, target=target, pairing=pairing)
+    raise ValueError(f"unknown effect type {kind!r}")
+
+
+def signature(params, extra=()) -> tuple:
+    """Everything an effect's output depends on besides the input splats and time: the
+    fields of the core parameters the kernel reads (not the panel's property list, which
+    can miss a derived value such as Explode's start in seconds = start frame / fps).
+    A morph's target and pairing are identified by `extra` (target key, relative matrix)."""
+    values = [type(params).__name__]
+    for spec in dataclasses.fields(params):
+        if spec.name in ("target", "pairing"):
+            continue
+        value = getattr(params, spec.name)
+        values.append(value.tobytes() if isinstance(value, np.ndarray) else value)
+    return tuple(values) + tuple(extra)
+
+
+def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
+    """Splats of another object expressed in this object's space (relative: 4x4 this<-that).
+
+    The linear part is split as R * s with s the cube root of |det| (exact for rotation and
+    uniform scale; a non-uniform relative scale is approximated by its mean). R turns the
+    centres, the rotations and the SH coefficients."""
+    linear = relative[:3, :3]
+    s = abs(np.linalg.det(linear)) ** (1.0 / 3.0)
+    if s == 0.0:
+        return splats
+    rot = linear / s
+    u, _, vt = np.linalg.svd(rot)
+    rot = u @ vt
+    positions = (splats.positions.astype(np.float64) @ linear.T + relative[:3, 3]).astype(np.float32)
+    q = _quat_from_matrix(rot).astype(np.float32)
+    rotations = fx.common.quat_multiply(np.broadcast_to(q, (splats.count, 4)), splats.rotations)
+    return SplatSet(positions, splats.scales * np.float32(s), rotations, splats.opacities,
+                    splats.sh_dc, rotate_sh(splats.sh_rest, rot), splats.axes)
+
+
+def rotate_sh(rest: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """Higher SH (N, K, 3) of splats turned by rot: their colours turn with them, as
+    reframe does for an axis convention (a morph target keeps its look from every side)."""
+    m = sh_rotation(rot, sh_degree_for(rest.shape[1]))
+    if m.size == 0 or np.allclose(m, np.eye(len(m)), atol=1e-9):
+        return rest
+    return np.einsum("jk,nkc->njc", m.astype(np.float32), rest, optimize=True)
+
+
+def _quat_from_matrix(m: np.ndarray) -> np.ndarray:
+    w = np.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
+    x = np.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0
+    y = np.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0
+    z = np.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0
+    x = np.copysign(x, m[2, 1] - m[1, 2])
+    y = np.copysign(y, m[0, 2] - m[2, 0])
+    z = np.copysign(z, m[1, 0] - m[0, 1])
+    q = np.array([w, x, y, z])
+    return q / np.linalg.norm(q)
+
+
+class MorphCache:
+    """Mapped targets and pairings, keyed by the data they came from (a pure cache)."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self.entries: dict = {}
+        self.lock = threading.Lock()  # the viewport and a render thread may share it
+
+    def target(self, source: SplatSet, source_key, target: SplatSet, target_key, relative):
+        key = (source_key, source.count, target_key, relative.tobytes())
+        with self.lock:
+            hit = self.entries.get(key)
+        if hit is None:
+            mapped = map_into(target, relative)
+            hit = (mapped, pair(source.positions, mapped.positions))
+            with self.lock:
+                self.entries[key] = hit
+                while len(self.entries) > self.size:
+                    self.entries.pop(next(iter(self.entries)))
+        return hit
+
+    def clear(self):
+        with self.lock:
+            self.entries.clear()

@@ -1,0 +1,334 @@
+"""Effect presets in Blender: apply one to the active splat object with one click, save the
+object's own stack as a new preset, remove a user preset. The format is core/effect_presets."""
+from __future__ import annotations
+
+import contextlib
+import json
+import pathlib
+
+import bpy
+from bpy_extras import anim_utils
+
+from ...core import effect_presets as core
+from ..evaluate import effect_params
+from ..evaluate.items import is_splat_object
+from ..data.pointcloud import read_positions
+from .presets import find_preset, list_presets
+
+USER_SUBDIR = "presets/splatline/effects"
+
+
+def apply_preset(obj, preset: core.EffectPreset, frame: float, target=None) -> list:
+    """Append the preset's effects to obj's stack and key them relative to frame.
+
+    Returns the new effect items. A MORPH effect takes `target` (another splat object).
+    All or nothing: every problem raises core.PresetError naming the preset, before obj
+    changes (the preset is first applied to a scratch object, see _rehearse).
+    """
+    if any(block.type == "MORPH" for block in preset.effects) and target is None:
+        raise core.PresetError(f"{_name(preset)}: morphs, so select a second splat object "
+                               "as the target")
+    context = core.bounds_context(read_positions(obj.data), frame, _field(obj))
+    _rehearse(preset, frame, target, context)
+    return _apply_all(obj, preset, frame, target, context)
+
+
+def _field(obj):
+    """Where a preset's new effects measure their fields: without a gizmo, world-aligned
+    axes at the object's origin (effect_params.field_frame), at the current frame."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return effect_params.field_frame(effect_params.world_matrix(obj, depsgraph))
+
+
+# What a bad preset raises from bpy or resolve(): unknown or read-only property (AttributeError,
+# ValueError), wrong type or enum value (TypeError), wrong vector length (ValueError), a
+# property that can't be keyed (TypeError), an expression dividing by a zero size.
+_PRESET_FAULTS = (AttributeError, KeyError, TypeError, ValueError, ZeroDivisionError, RuntimeError)
+
+
+def _rehearse(preset, frame, target, context) -> None:
+    """Apply the preset to a scratch object that no scene holds, so that a bad value
+    anywhere in it fails here, before the user's object has half the preset: undoing a
+    partial apply would mean restoring F-curves that may have held keys of their own."""
+    scratch = bpy.data.objects.new("splatline preset check", None)
+    try:
+        _apply_all(scratch, preset, frame, target, context)
+    except _PRESET_FAULTS as exc:
+        raise core.PresetError(f"{_name(preset)}: {_one_line(exc)}") from None
+    finally:
+        anim = scratch.animation_data
+        action = anim.action if anim is not None else None
+        bpy.data.objects.remove(scratch)
+        if action is not None and action.users == 0:
+            bpy.data.actions.remove(action)
+
+
+def _name(preset) -> str:
+    return f"effect preset {preset.name!r}"
+
+
+def _one_line(exc) -> str:
+    text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+    return " ".join(text.replace("bpy_struct: item.attr = val: ", "").split())
+
+
+def _apply_all(obj, preset, frame, target, context) -> list:
+    added = []
+    if preset.look is not None:
+        _apply_block(obj, obj.splatline.look, "splatline.look", preset.look, frame, context)
+    for block in preset.effects:
+        effect = obj.splatline.effects.add()
+        index = len(obj.splatline.effects) - 1
+        with _where(f"effects[{index}].type"):
+            effect.type = block.type
+        if block.type == "MORPH":
+            effect.target = target
+        _apply_block(obj, effect, f"splatline.effects[{index}]", block, frame, context)
+        added.append(effect)
+    obj.splatline.active_effect = len(obj.splatline.effects) - 1
+    return added
+
+
+def _apply_block(obj, group, path, block: core.Block, frame, context):
+    for prop, value in block.set.items():
+        with _where(f"{path}.{prop}"):
+            _assign(group, prop, core.resolve(value, context))
+    for prop, points in block.keys.items():
+        for offset, value in points:
+            with _where(f"{path}.{prop}"):
+                _assign(group, prop, core.resolve(value, context))
+                obj.keyframe_insert(data_path=f"{path}.{prop}", frame=frame + offset)
+        _set_interpolation(obj, f"{path}.{prop}", block.interpolation)
+
+
+@contextlib.contextmanager
+def _where(path):
+    """Prefix an error with the property it came from (the preset's own words)."""
+    try:
+        yield
+    except core.PresetError:
+        raise
+    except _PRESET_FAULTS as exc:
+        raise core.PresetError(f"{path.removeprefix('splatline.')}: {_one_line(exc)}") from None
+
+
+def _assign(group, prop, value):
+    if not hasattr(group, prop):
+        raise ValueError(f"{type(group).__name__} has no property {prop!r}")
+    setattr(group, prop, value)
+
+
+def _set_interpolation(obj, data_path, interpolation):
+    anim = obj.animation_data
+    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
+    for curve in bag.fcurves:
+        if curve.data_path == data_path:
+            for point in curve.keyframe_points:
+                point.interpolation = interpolation
+
+
+def user_dir() -> pathlib.Path:
+    """Where saved effect presets go: Blender's user scripts folder (moved, as all of
+    Blender's user presets are, by the BLENDER_USER_SCRIPTS environment variable)."""
+    folder = bpy.utils.user_resource("SCRIPTS", path=USER_SUBDIR, create=True)
+    if not folder:  # Blender gives "" when it cannot create it: never write to the cwd
+        raise OSError(f"cannot create the user preset folder {USER_SUBDIR}")
+    return pathlib.Path(folder)
+
+
+def capture_preset(obj, frame: float, label: str) -> dict:
+    """The object's effect stack and its keyframes, as preset JSON relative to frame."""
+    effects = []
+    for index, effect in enumerate(obj.splatline.effects):
+        fields = _effect_fields(effect)
+        keys = _keys_for(obj, f"splatline.effects[{index}].", frame)
+        effects.append({"type": effect.type,
+                        "set": {k: v for k, v in fields.items() if k not in keys},
+                        "keys": keys})
+    return {"label": label, "description": f"Saved from {obj.name}", "effects": effects}
+
+
+def _effect_fields(effect) -> dict:
+    out = {}
+    for prop in effect.bl_rna.properties:
+        name = prop.identifier
+        if name in {"rna_type", "name", "type", "gizmo", "target"} or prop.type == "POINTER":
+            continue
+        value = getattr(effect, name)
+        out[name] = list(value) if hasattr(value, "__len__") and not isinstance(value, str) else value
+    return out
+
+
+def _keys_for(obj, prefix, frame) -> dict:
+    """{prop: [[offset, value], ...]} for the keyed properties under prefix; vector
+    properties are merged across their array indices (keys on the same frames)."""
+    anim = obj.animation_data
+    if anim is None or anim.action is None:
+        return {}
+    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
+    by_prop: dict[str, dict[float, dict[int, float]]] = {}
+    for curve in (bag.fcurves if bag else []):
+        prop = curve.data_path[len(prefix):]
+        if not curve.data_path.startswith(prefix) or "[" in prop or "." in prop:
+            continue
+        for point in curve.keyframe_points:
+            by_prop.setdefault(prop, {}).setdefault(point.co[0], {})[curve.array_index] = point.co[1]
+    keys = {}
+    for prop, frames in by_prop.items():
+        keys[prop] = []
+        for key_frame in sorted(frames):
+            parts = frames[key_frame]
+            value = parts[0] if len(parts) == 1 else [parts[i] for i in sorted(parts)]
+            keys[prop].append([key_frame - frame, value])
+    return keys
+
+
+def _os_text(exc: OSError) -> str:
+    return f"{exc.filename}: {exc.strerror}" if exc.filename and exc.strerror else str(exc)
+
+
+def _active_splat_object(context):
+    obj = context.active_object
+    return obj if is_splat_object(obj) else None
+
+
+class SPLATLINE_OT_effect_preset_apply(bpy.types.Operator):
+    """Add this preset's effects to the active splat object, keyed from the current frame"""
+    bl_idname = "splatline.effect_preset_apply"
+    bl_label = "Apply Effect Preset"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: bpy.props.StringProperty(name="Preset", description="Preset name (file stem)")
+
+    @classmethod
+    def poll(cls, context):
+        return _active_splat_object(context) is not None
+
+    def execute(self, context):
+        obj = _active_splat_object(context)
+        others = [o for o in context.selected_objects if o is not obj and is_splat_object(o)]
+        try:
+            preset = core.load(find_preset(self.preset, "effects", ".json"))
+            apply_preset(obj, preset, context.scene.frame_current, others[0] if others else None)
+        except (KeyError, core.PresetError) as exc:  # apply_preset turns bpy's errors into these
+            self.report({"ERROR"}, _one_line(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{preset.label}: added to {obj.name} at frame {context.scene.frame_current}")
+        return {"FINISHED"}
+
+
+class SPLATLINE_OT_effect_preset_add(bpy.types.Operator):
+    """Save the active object's effect stack and its keyframes, relative to the current frame"""
+    bl_idname = "splatline.effect_preset_add"
+    bl_label = "Save Effect Preset"
+
+    name: bpy.props.StringProperty(name="Name", default="My Effect")
+
+    @classmethod
+    def poll(cls, context):
+        obj = _active_splat_object(context)
+        return obj is not None and len(obj.splatline.effects) > 0
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        obj = _active_splat_object(context)
+        if not self.name.strip():
+            self.report({"ERROR"}, "an effect preset needs a name")
+            return {"CANCELLED"}
+        data = capture_preset(obj, context.scene.frame_current, self.name)
+        try:
+            path = user_dir() / (bpy.path.clean_name(self.name.strip()).lower() + ".json")
+            path.write_text(json.dumps(data, indent=1))
+        except OSError as exc:
+            self.report({"ERROR"}, f"cannot save effect preset {self.name!r}: {_os_text(exc)}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"saved {path}")
+        return {"FINISHED"}
+
+
+class SPLATLINE_OT_effect_preset_remove(bpy.types.Operator):
+    """Delete a preset you saved (bundled presets stay)"""
+    bl_idname = "splatline.effect_preset_remove"
+    bl_label = "Remove Effect Preset"
+
+    preset: bpy.props.StringProperty(name="Preset")
+
+    def execute(self, context):
+        try:
+            # A bare file stem only: the name must not reach outside the preset folder.
+            path = user_dir() / f"{pathlib.Path(self.preset).name}.json"
+            if not self.preset or path.stem != self.preset or not path.is_file():
+                self.report({"ERROR"}, f"{self.preset}: not a user preset (bundled presets can't be removed)")
+                return {"CANCELLED"}
+            path.unlink()
+        except OSError as exc:
+            self.report({"ERROR"}, f"cannot remove effect preset {self.preset!r}: {_os_text(exc)}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"removed {path}")
+        return {"FINISHED"}
+
+
+class SPLATLINE_MT_effect_presets(bpy.types.Menu):
+    bl_idname = "SPLATLINE_MT_effect_presets"
+    bl_label = "Effect Presets"
+
+    def draw(self, context):
+        layout = self.layout
+        for name, path in list_presets("effects", ".json").items():
+            label = _label(path)
+            layout.operator(SPLATLINE_OT_effect_preset_apply.bl_idname, text=label).preset = name
+        layout.separator()
+        layout.operator(SPLATLINE_OT_effect_preset_add.bl_idname, icon="ADD")
+        layout.menu(SPLATLINE_MT_effect_presets_remove.bl_idname, icon="REMOVE")
+
+
+class SPLATLINE_MT_effect_presets_remove(bpy.types.Menu):
+    bl_idname = "SPLATLINE_MT_effect_presets_remove"
+    bl_label = "Remove Saved Preset"
+
+    def draw(self, context):
+        try:
+            paths = sorted(user_dir().glob("*.json"))
+        except OSError:  # no user folder: nothing saved to remove
+            paths = []
+        for path in paths:
+            self.layout.operator(SPLATLINE_OT_effect_preset_remove.bl_idname,
+                                 text=_label(path)).preset = path.stem
+
+
+def _label(path) -> str:
+    try:
+        return core.load(path).label
+    except core.PresetError:
+        return path.stem + " (invalid)"
+
+
+def _draw_in_effects_panel(self, context):
+    self.layout.menu(SPLATLINE_MT_effect_presets.bl_idname, icon="PRESET")
+
+
+classes = (SPLATLINE_OT_effect_preset_apply, SPLATLINE_OT_effect_preset_add,
+           SPLATLINE_OT_effect_preset_remove, SPLATLINE_MT_effect_presets_remove,
+           SPLATLINE_MT_effect_presets)
+
+
+def _effects_panel():
+    return getattr(bpy.types, "SPLATLINE_PT_effects", None)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    panel = _effects_panel()
+    if panel is not None:
+        panel.append(_draw_in_effects_panel)
+
+
+def unregister():
+    panel = _effects_panel()
+    if panel is not None:
+        panel.remove(_draw_in_effects_panel)
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

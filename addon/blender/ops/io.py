@@ -1,0 +1,218 @@
+"""File > Import / Export > Gaussian Splats, and the drag-and-drop FileHandler."""
+from __future__ import annotations
+
+import os
+
+import bpy
+from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper, poll_file_object_drop
+
+from ...core.errors import SplatFormatError
+from ..data.files import export_object, import_file_with_report, object_axes
+from ..data.pointcloud import is_splat_data
+
+_AXES_ENUM = [
+    ("AUTO", "From File", "Y down, z forward for .ply, .splat, .spz and .sog (the .spz frame splat-transform "
+                          "writes); glTF is read into the same frame"),
+    ("RDF", "Y Down, Z Forward", "3DGS / COLMAP camera frame"),
+    ("RUB", "Y Up, Z Back", "OpenGL-like frame: pick this for a .spz from Niantic's own tools"),
+    ("RFU", "Z Up (Blender)", "No rotation"),
+]
+_BAD_ENUM = [
+    ("fix", "Neutralise", "Splats with NaN/Inf values become invisible; zero quaternions become identity; scales <= 0 become |scale|"),
+    ("drop", "Drop", "Remove splats with NaN/Inf values, zero quaternions or scales <= 0"),
+    ("error", "Refuse File", "Refuse a file holding any NaN/Inf value, zero quaternion or scale <= 0"),
+]
+
+
+class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
+    """Import Gaussian splat captures as PointCloud objects"""
+
+    bl_idname = "import_scene.splatline_gaussians"
+    bl_label = "Gaussian Splats (.ply, .splat, .spz, .sog, .glb)"
+    bl_options = {"REGISTER", "UNDO", "PRESET"}
+
+    filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;meta.json;*.glb;*.gltf",
+                                options={"HIDDEN"})
+    directory: StringProperty(subtype="DIR_PATH", options={"SKIP_SAVE", "HIDDEN"})
+    files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"SKIP_SAVE", "HIDDEN"})
+
+    max_sh_degree: IntProperty(name="Max SH Degree", default=3, min=0, max=3,
+                               description="Keep spherical harmonics up to this degree; higher bands are not stored")
+    min_opacity: FloatProperty(name="Min Opacity", default=0.0, min=0.0, max=1.0,
+                               description="Drop splats less opaque than this")
+    max_count: IntProperty(name="Max Splats", default=0, min=0,
+                           description="Keep at most this many splats, the most important first (0: all)")
+    axes: EnumProperty(name="Axes", items=_AXES_ENUM, default="AUTO",
+                       description="Axis convention of the file, applied as the object's rotation")
+    bad_values: EnumProperty(name="Bad Values", items=_BAD_ENUM, default="fix",
+                             description="What to do with splats holding NaN/Inf values or zero quaternions")
+
+    def paths(self) -> list[str]:
+        names = [f.name for f in self.files if f.name]
+        if names and self.directory:
+            return [os.path.join(self.directory, name) for name in names]
+        return [self.filepath] if self.filepath else []
+
+    def invoke(self, context, event):
+        return self.invoke_popup(context)
+
+    def execute(self, context):
+        paths = self.paths()
+        if not paths:
+            self.report({"ERROR"}, "no file given")
+            return {"CANCELLED"}
+        for obj in context.view_layer.objects if context.view_layer else ():
+            obj.select_set(False)
+        wm = context.window_manager
+        wm.progress_begin(0, len(paths))
+        imported, errors = [], []
+        try:
+            for i, path in enumerate(paths):
+                try:
+                    obj, report = import_file_with_report(
+                        context, path, max_sh_degree=self.max_sh_degree, min_opacity=self.min_opacity,
+                        max_count=self.max_count, axes=self.axes, bad=self.bad_values,
+                        progress=lambda done, i=i: wm.progress_update(i + done))
+                except SplatFormatError as exc:
+                    errors.append(str(exc))
+                except (OSError, MemoryError) as exc:
+                    errors.append(f"{path}: {exc.strerror if isinstance(exc, OSError) else 'out of memory'}")
+                else:
+                    imported.append(obj)
+                    if report.bad.total:
+                        self.report({"WARNING"}, f"{path}: {report.bad.summary()}")
+                    if report.dropped_sh:
+                        self.report({"WARNING"}, f"{path}: {report.dropped_sh}")
+        finally:
+            wm.progress_end()
+        # As Blender's own importers do: with something imported, a failed file is a warning
+        # and the operator finishes (an ERROR report would make bpy.ops raise after the good
+        # files were already in the scene); with nothing imported it is an error.
+        level = {"WARNING"} if imported else {"ERROR"}
+        for message in errors:
+            self.report(level, message)
+        if not imported:
+            return {"CANCELLED"}
+        failed = f", {len(errors)} file(s) failed" if errors else ""
+        self.report({"INFO"}, f"imported {len(imported)} splat object(s){failed}")
+        return {"FINISHED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        for name in ("max_sh_degree", "min_opacity", "max_count", "axes", "bad_values"):
+            layout.prop(self, name)
+
+
+# (enum id, label, description, file extension)
+_EXPORT_FORMATS = (
+    ("PLY", "INRIA PLY (.ply)", "Float PLY with every SH band: a lossless round trip", ".ply"),
+    ("COMPRESSED_PLY", "Compressed PLY (.compressed.ply)",
+     "PlayCanvas/SuperSplat packed PLY: about a quarter of the float PLY", ".compressed.ply"),
+    ("SPLAT", "antimatter15 (.splat)", "Compact 32-byte splats, no higher SH", ".splat"),
+    ("SPZ", "Niantic SPZ (.spz)", "SPZ v4 (zstd streams), about a tenth of the float PLY", ".spz"),
+    ("SOG", "PlayCanvas SOG (.sog)", "SOG v2 bundled: WebP images in a zip, the smallest", ".sog"),
+    ("GLB", "glTF binary (.glb)", "KHR_gaussian_splatting glTF, one binary file", ".glb"),
+    ("GLTF", "glTF (.gltf)", "KHR_gaussian_splatting glTF with embedded buffers", ".gltf"),
+)
+_EXPORT_EXT = {key: ext for key, _, _, ext in _EXPORT_FORMATS}
+
+
+class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
+    """Export the selected splat objects' data (object-local) to any writable splat format"""
+
+    bl_idname = "export_scene.splatline_gaussians"
+    bl_label = "Gaussian Splats (.ply, .splat, .spz, .sog, .glb)"
+    bl_options = {"REGISTER", "PRESET"}
+
+    filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;*.glb;*.gltf", options={"HIDDEN"})
+    file_format: EnumProperty(name="Format", default="PLY",
+                              items=[item[:3] for item in _EXPORT_FORMATS])
+
+    @property
+    def filename_ext(self):
+        return _EXPORT_EXT[self.file_format]
+
+    @classmethod
+    def poll(cls, context):
+        return any(_is_splat_object(o) for o in context.selected_objects)
+
+    def _root(self) -> str:
+        """The chosen path without any known extension: the format picks the extension."""
+        path = self.filepath
+        for ext in sorted(set(_EXPORT_EXT.values()), key=len, reverse=True):
+            if path.lower().endswith(ext):
+                return path[: -len(ext)]
+        return path
+
+    def execute(self, context):
+        objects = [o for o in context.selected_objects if _is_splat_object(o)]
+        if not objects:
+            self.report({"ERROR"}, "select a splat object to export")
+            return {"CANCELLED"}
+        root, ext = self._root(), self.filename_ext
+        written = []
+        for obj in objects:
+            path = root + ext if len(objects) == 1 else f"{root}_{bpy.path.clean_name(obj.name)}{ext}"
+            try:
+                export_object(obj, path)
+            except SplatFormatError as exc:
+                self.report({"ERROR"}, str(exc))
+            else:
+                written.append(path)
+        if not written:
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"wrote {', '.join(written)} ({object_axes(objects[0])} axes)")
+        return {"FINISHED"}
+
+
+def _is_splat_object(obj) -> bool:
+    return obj is not None and obj.type == "POINTCLOUD" and is_splat_data(obj.data)
+
+
+class IO_FH_splatline_gaussians(bpy.types.FileHandler):
+    """Drops of .ply/.splat/.spz on the 3D viewport or outliner. Blender's own handlers take
+    .ply (every mesh PLY; splats from 5.3 on) and, in 5.3+, .spz: where several handlers
+    accept a file, Blender asks which one to use, so Splatline stays in that list under a
+    label that names it rather than guessing from the file (poll_drop cannot see the path).
+    Either choice gives a splat object Splatline animates (native.py)."""
+    bl_idname = "IO_FH_splatline_gaussians"
+    bl_label = "Gaussian Splats (Splatline)"
+    bl_import_operator = "import_scene.splatline_gaussians"
+    # Not .glb/.gltf: poll_drop sees only the context, never the dropped file, so it cannot
+    # tell a splat glTF from a plain one, and listing the extensions would put Splatline in
+    # front of every glTF drop. Dropped glTF stays Blender's own importer's; splat glTF comes
+    # in through File > Import > Gaussian Splats, which names Blender's importer for a plain
+    # one (formats/gltf.py). Not meta.json either: any .json drop would be offered to us.
+    bl_file_extensions = ".ply;.splat;.spz;.sog"
+
+    @classmethod
+    def poll_drop(cls, context):
+        return poll_file_object_drop(context)
+
+
+def _menu_import(self, context):
+    self.layout.operator(IMPORT_SCENE_OT_splatline_gaussians.bl_idname, text="Gaussian Splats (.ply, .splat, .spz, .sog, .glb)")
+
+
+def _menu_export(self, context):
+    self.layout.operator(EXPORT_SCENE_OT_splatline_gaussians.bl_idname,
+                         text="Gaussian Splats (.ply, .splat, .spz, .sog, .glb)")
+
+
+_CLASSES = (IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians, IO_FH_splatline_gaussians)
+
+
+def register():
+    for cls in _CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
+    bpy.types.TOPBAR_MT_file_export.append(_menu_export)
+
+
+def unregister():
+    bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
+    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
+    for cls in reversed(_CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,282 @@
+"""File > Import > Splat Sequence, File > Export > Evaluated Splats, the bake operator and
+the Object-properties panel of a sequence. unregister() also joins the read-ahead thread."""
+from __future__ import annotations
+
+import os
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+from ...core.errors import SplatFormatError
+from ..evaluate import sequence_frames as sequence_runtime
+from ..data.sequences import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, bake_frames, export_evaluated,
+                              import_sequence, remap_directories, restore_directories)
+from ..props.sequence import _LOOP_ITEMS
+
+
+def _splat_object(context):
+    obj = context.active_object
+    if obj is not None and obj.type == "POINTCLOUD" and "radiance:base" in obj.data.attributes:
+        return obj
+    return None
+
+
+class IMPORT_SCENE_OT_splatline_sequence(bpy.types.Operator, ImportHelper):
+    """Import a folder of numbered splat files as one object that plays them on the timeline"""
+
+    bl_idname = "import_scene.splatline_sequence"
+    bl_label = "Splat Sequence"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filter_glob: StringProperty(default="*.ply;*.splat;*.spz", options={"HIDDEN"})
+    directory: StringProperty(subtype="DIR_PATH", options={"SKIP_SAVE", "HIDDEN"})
+    align: EnumProperty(name="Timing", default=ALIGN_FILE_NUMBERS, items=[
+        (ALIGN_FILE_NUMBERS, "File Numbers", "File number N shows at scene frame N (as a bake writes them)"),
+        (ALIGN_SCENE_START, "Scene Start", "The first file shows at the scene's start frame"),
+    ])
+    loop_mode: EnumProperty(name="Loop", items=_LOOP_ITEMS, default="HOLD")
+    set_scene_range: BoolProperty(name="Set Scene Range", default=False,
+                                  description="Set the scene's frame range to the sequence's")
+
+    def execute(self, context):
+        # a chosen file names the pattern; a folder alone picks its largest numbered group
+        path = self.filepath if os.path.isfile(self.filepath) else (self.directory or self.filepath)
+        try:
+            obj = import_sequence(context, path, align=self.align, loop_mode=self.loop_mode,
+                                  set_scene_range=self.set_scene_range)
+        except SplatFormatError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        seq = obj.splatline.sequence
+        self.report({"INFO"}, f"{obj.name}: {seq.frame_count} frames from {seq.directory}")
+        return {"FINISHED"}
+
+
+class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
+    """Export the active splat object's evaluated splats at this frame (effects and look baked)"""
+
+    bl_idname = "export_scene.splatline_evaluated"
+    bl_label = "Evaluated Splats"
+    bl_options = {"REGISTER"}
+
+    filename_ext = ".ply"
+    check_extension = False  # keep a typed .splat; execute() adds .ply to anything else
+    filter_glob: StringProperty(default="*.ply;*.splat", options={"HIDDEN"})
+
+    @classmethod
+    def poll(cls, context):
+        return _splat_object(context) is not None
+
+    def execute(self, context):
+        path = self.filepath
+        if os.path.splitext(path)[1].lower() not in (".ply", ".splat"):
+            path += ".ply"
+        try:
+            export_evaluated(_splat_object(context), context.evaluated_depsgraph_get(), path)
+        except SplatFormatError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"wrote {path}")
+        return {"FINISHED"}
+
+
+class SPLATLINE_OT_bake_sequence(bpy.types.Operator):
+    """Write the active splat object's evaluated splats for each frame as numbered PLYs (Esc cancels)"""
+
+    bl_idname = "splatline.bake_sequence"
+    bl_label = "Bake Splat Sequence"
+    bl_options = {"REGISTER"}
+
+    directory: StringProperty(name="Folder", subtype="DIR_PATH")
+    frame_start: IntProperty(name="Start", default=1, min=0)
+    frame_end: IntProperty(name="End", default=250, min=0)
+    prefix: StringProperty(name="Prefix", default="frame_")
+    import_result: BoolProperty(name="Import Result", default=False,
+                                description="Import the baked frames as a sequence object afterwards")
+
+    _steps = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        return _splat_object(context) is not None
+
+    def invoke(self, context, event):
+        scene = context.scene
+        self.frame_start, self.frame_end = max(scene.frame_start, 0), max(scene.frame_end, 0)
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _begin(self, context):
+        if not self.directory:
+            raise ValueError("choose a folder to bake into")
+        if self.frame_end < self.frame_start:
+            raise ValueError(f"empty frame range {self.frame_start}..{self.frame_end}")
+        self._steps = bake_frames(context, _splat_object(context), self.directory,
+                                  self.frame_start, self.frame_end, self.prefix)
+        self._done = 0
+        context.window_manager.progress_begin(0, self.frame_end - self.frame_start + 1)
+
+    def _step(self, context) -> bool:
+        """Bake one frame; False when all are written."""
+        try:
+            next(self._steps)
+        except StopIteration:
+            return False
+        self._done += 1
+        context.window_manager.progress_update(self._done)
+        return True
+
+    def _finish(self, context, cancelled=False):
+        if self._steps is not None:
+            self._steps.close()  # restores the scene frame
+        context.window_manager.progress_end()
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+        what = "cancelled after" if cancelled else "baked"
+        self.report({"WARNING" if cancelled else "INFO"}, f"{what} {self._done} frames into {self.directory}")
+        if not cancelled and self.import_result:
+            path = os.path.join(bpy.path.abspath(self.directory), f"{self.prefix}{str(self.frame_start).zfill(4)}.ply")
+            import_sequence(context, path)
+        return {"CANCELLED"} if cancelled else {"FINISHED"}
+
+    def execute(self, context):
+        try:
+            self._begin(context)
+        except ValueError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        if context.window is None or bpy.app.background:
+            return self._run_all(context)
+        # interactive: one frame per timer tick, so the UI stays responsive and Esc works
+        self._timer = context.window_manager.event_timer_add(0.001, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _run_all(self, context):
+        try:
+            while self._step(context):
+                pass
+        except (SplatFormatError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            self._finish(context, cancelled=True)
+            return {"CANCELLED"}
+        return self._finish(context)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            return self._finish(context, cancelled=True)
+        if event.type != "TIMER":
+            return {"RUNNING_MODAL"}
+        try:
+            if self._step(context):
+                return {"RUNNING_MODAL"}
+        except (SplatFormatError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return self._finish(context, cancelled=True)
+        return self._finish(context)
+
+
+class OBJECT_PT_splatline_sequence(bpy.types.Panel):
+    bl_label = "Splat Sequence"
+    bl_idname = "OBJECT_PT_splatline_sequence"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return _splat_object(context) is not None
+
+    def draw(self, context):
+        obj = _splat_object(context)
+        seq = obj.splatline.sequence
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(seq, "enabled")
+        if seq.enabled:
+            col = layout.column()
+            col.prop(seq, "directory")
+            col.label(text=f"{seq.prefix}{'#' * seq.digits}{seq.suffix}, {seq.frame_count} frames "
+                           f"from {seq.first_number}")
+            col.prop(seq, "start_frame")
+            col.prop(seq, "frame_offset")
+            col.prop(seq, "speed")
+            col.prop(seq, "loop_mode")
+            col.prop(seq, "cache_budget_mb")
+            col.prop(seq, "read_ahead")
+            problem = sequence_runtime.report_for(obj)
+            if problem:
+                layout.label(text=problem, icon="ERROR")
+        layout.operator(SPLATLINE_OT_bake_sequence.bl_idname, icon="RENDER_ANIMATION")
+
+
+def _menu_import(self, context):
+    self.layout.operator(IMPORT_SCENE_OT_splatline_sequence.bl_idname, text="Splat Sequence (.ply, .splat, .spz)")
+
+
+def _menu_export(self, context):
+    self.layout.operator(EXPORT_SCENE_OT_splatline_evaluated.bl_idname, text="Evaluated Splats (.ply, .splat)")
+    self.layout.operator(SPLATLINE_OT_bake_sequence.bl_idname, text="Baked Splat Sequence (.ply)")
+
+
+class _SaveRemap:
+    """save_pre makes sequence folders relative to where the .blend is saved; save_post
+    puts them back when the save was a copy (the open file did not move)."""
+
+    def __init__(self):
+        self.previous = {}
+
+    @bpy.app.handlers.persistent
+    def pre(self, filepath, *_args):
+        self.previous = remap_directories(filepath) if filepath else {}
+
+    @bpy.app.handlers.persistent
+    def post(self, filepath, *_args):
+        if self.previous and os.path.abspath(bpy.data.filepath) != os.path.abspath(filepath):
+            restore_directories(self.previous)
+        self.previous = {}
+
+
+@bpy.app.handlers.persistent
+def _on_load(*_args):
+    sequence_runtime.forget_objects()
+
+
+_save_remap = None
+
+
+_CLASSES = (IMPORT_SCENE_OT_splatline_sequence, EXPORT_SCENE_OT_splatline_evaluated,
+            SPLATLINE_OT_bake_sequence, OBJECT_PT_splatline_sequence)
+
+
+def register():
+    global _save_remap
+    for cls in _CLASSES:
+        bpy.utils.register_class(cls)
+    _save_remap = _SaveRemap()
+    bpy.app.handlers.save_pre.append(_save_remap.pre)
+    bpy.app.handlers.save_post.append(_save_remap.post)
+    bpy.app.handlers.load_post.append(_on_load)
+    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
+    bpy.types.TOPBAR_MT_file_export.append(_menu_export)
+
+
+def unregister():
+    global _save_remap
+    if _save_remap is not None:
+        for handlers, fn in ((bpy.app.handlers.save_pre, _save_remap.pre),
+                             (bpy.app.handlers.save_post, _save_remap.post)):
+            if fn in handlers:
+                handlers.remove(fn)
+        _save_remap = None
+    while _on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_on_load)
+    bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
+    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
+    for cls in reversed(_CLASSES):
+        bpy.utils.unregister_class(cls)
+    sequence_runtime.shutdown()

@@ -1,0 +1,54 @@
+"""Scene.splatline.render: the Splatline engine's quality settings (core RenderOptions)."""
+import bpy
+
+from ...core.scene import RenderOptions
+
+# Explicit numbers: a .blend stores the number, and OFFSCREEN/REFERENCE keep the ones
+# they had before AUTO and GPU_MODULE existed.
+RENDERERS = (
+    ("AUTO", "Auto", "Offscreen GL (moderngl) where it starts, else Blender's GPU module", 2),
+    ("OFFSCREEN", "moderngl", "moderngl offscreen renderer on its own OpenGL context (GPU, or "
+     "Mesa llvmpipe on CPU); fails where moderngl or its context is missing", 0),
+    ("GPU_MODULE", "Blender GPU", "The viewport's drawing code through Blender's own GPU "
+     "backend (OpenGL, Vulkan, Metal): no extra wheel or driver; no depth pass", 3),
+    ("REFERENCE", "Reference",
+     "Exact float64 per-pixel CPU renderer: slow, for checking the fast ones", 1),
+)
+
+
+class RenderSettings(bpy.types.PropertyGroup):
+    renderer: bpy.props.EnumProperty(
+        name="Renderer", items=RENDERERS, default="AUTO",
+        description="Which implementation of the same splat semantics renders the frame")
+    antialiased: bpy.props.BoolProperty(
+        name="Anti-aliased", default=False,
+        description="Compensate opacity for the 0.3 px low-pass filter (gsplat's "
+                    "anti-aliased mode); use for captures trained that way")
+    early_termination: bpy.props.BoolProperty(
+        name="Early Termination", default=False,
+        description="Stop a pixel once its transmittance drops below 1e-4, as INRIA's "
+                    "tile rasterizer does (only renderers that support it)")
+    capped_extent: bpy.props.BoolProperty(
+        name="Capped Extent (3 sigma)", default=False,
+        description="Cut each splat's quad at 3 sigma instead of its exact footprint (where "
+                    "alpha falls to 1/255, 3.33 sigma at full opacity): faster, drops a faint "
+                    "ring of alpha below 0.011")
+    key_bits: bpy.props.EnumProperty(
+        name="Sort Key Bits",
+        items=(("16", "16-bit", "Faster sort; enough for most captures"),
+               ("32", "32-bit", "Exact order for scenes with a wide depth range")),
+        default="32", description="Precision of the back-to-front depth sort keys")
+    gpu_sort: bpy.props.BoolProperty(
+        name="GPU Sort", default=True,
+        description="Sort on the GPU with compute shaders where OpenGL 4.3 is available, "
+                    "else on the CPU")
+
+    def options(self, background=(0.0, 0.0, 0.0, 0.0)) -> RenderOptions:
+        """The core RenderOptions these settings stand for."""
+        return RenderOptions(
+            antialiased=self.antialiased, early_termination=self.early_termination,
+            capped_extent=self.capped_extent, key_bits=int(self.key_bits),
+            gpu_sort=self.gpu_sort, background=tuple(background))
+
+
+classes = (RenderSettings,)

@@ -1,0 +1,42 @@
+"""Root property groups: Object.splatline and Scene.splatline.
+
+Each concern defines its own sub-group in its own module; this one only nests them.
+"""
+import bpy
+
+from . import (display as display_props, effect as effect_props, look as look_props,
+               render as render_props, sequence as sequence_props)
+
+_SUBMODULES = (display_props, look_props, effect_props, sequence_props, render_props)
+
+
+class SplatlineObjectSettings(bpy.types.PropertyGroup):
+    display: bpy.props.PointerProperty(type=display_props.DisplaySettings)
+    look: bpy.props.PointerProperty(type=look_props.LookSettings)
+    effects: bpy.props.CollectionProperty(type=effect_props.Effect)
+    active_effect: bpy.props.IntProperty(default=0, min=0)
+    sequence: bpy.props.PointerProperty(type=sequence_props.SequenceSettings)
+
+
+class SplatlineSceneSettings(bpy.types.PropertyGroup):
+    render: bpy.props.PointerProperty(type=render_props.RenderSettings)
+
+
+def register():
+    for module in _SUBMODULES:
+        for cls in module.classes:
+            bpy.utils.register_class(cls)
+    bpy.utils.register_class(SplatlineObjectSettings)
+    bpy.utils.register_class(SplatlineSceneSettings)
+    bpy.types.Object.splatline = bpy.props.PointerProperty(type=SplatlineObjectSettings)
+    bpy.types.Scene.splatline = bpy.props.PointerProperty(type=SplatlineSceneSettings)
+
+
+def unregister():
+    del bpy.types.Scene.splatline
+    del bpy.types.Object.splatline
+    bpy.utils.unregister_class(SplatlineSceneSettings)
+    bpy.utils.unregister_class(SplatlineObjectSettings)
+    for module in reversed(_SUBMODULES):
+        for cls in reversed(module.classes):
+            bpy.utils.unregister_class(cls)

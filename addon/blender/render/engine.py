@@ -1,0 +1,271 @@
+"""The Splatline RenderEngine: F12, `blender -b -a`, and bpy.ops.render.render from bpy.
+
+Blender makes a new engine instance for every frame, so the offscreen renderer (its
+GL context, worker thread and GPU buffers) lives in a module-level holder instead:
+created on the first frame of a render job, reused by the following frames, and
+closed when the job completes or is cancelled, and on unregister.
+Headless Ctrl+C stops a job between frames (render_stop.py).
+"""
+from __future__ import annotations
+
+import threading
+import traceback
+
+import bpy
+
+from ...core.errors import SplatFormatError
+from ..ui import render_panel
+from . import paths as render_paths
+from .camera import camera_from_blender
+from ..evaluate.items import collect_items
+from .film import (blender_depth, bottom_up, composite_over, region_camera, render_region,
+                   to_scene_linear)
+from .stop import SigintGuard, stop_requested
+
+
+class _RendererHolder:
+    """One renderer, shared by the frames of a render job; the lock covers F12 jobs
+    running on Blender's render thread while unregister runs on the main thread."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._renderer = None
+        self._kind = None
+        self.label = ""
+
+    def get(self, kind: str, depth: bool):
+        """(renderer for kind, whether it was made just now); depth=False skips the GL
+        depth pass (no Z pass wanted)."""
+        with self._lock:
+            fresh = self._renderer is None or self._kind != (kind, depth)
+            if fresh:
+                self._close_locked()
+                self._renderer, self.label = render_paths.make_renderer(kind, depth)
+                self._kind = (kind, depth)
+            return self._renderer, fresh
+
+    @property
+    def alive(self) -> bool:
+        return self._renderer is not None
+
+    def close(self):
+        with self._lock:
+            self._close_locked()
+
+    def _close_locked(self):
+        renderer, self._renderer, self._kind = self._renderer, None, None
+        if renderer is not None:
+            renderer.close()
+
+
+_HOLDER = _RendererHolder()
+_SIGINT = SigintGuard()
+
+
+class _Stopped(Exception):
+    """Raised between stages when the user asked to stop (Esc, SIGINT)."""
+
+
+class SplatlineRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "SPLATLINE"
+    bl_label = "Splatline"
+    bl_use_preview = False
+    # Blender's GPU context is current in render(): the Blender-GPU path draws there
+    # (render_paths.py). The moderngl path never touches it: its standalone context
+    # lives on its own thread (DESIGN.md), so the two cannot clobber each other.
+    bl_use_gpu_context = True
+    bl_use_postprocess = True
+
+    def render(self, depsgraph):
+        try:
+            self._render(depsgraph)
+        except (_Stopped, KeyboardInterrupt):
+            # An ERROR report makes Blender break the job: no file for this frame.
+            self.report({"ERROR"}, "Splatline: render interrupted")
+        except (SplatFormatError, ValueError) as exc:
+            self.report({"ERROR"}, f"Splatline: {exc}")
+        except Exception as exc:  # a bug: show the traceback, but still stop cleanly
+            traceback.print_exc()
+            self.report({"ERROR"}, f"Splatline: {type(exc).__name__}: {exc}")
+
+    def _check(self):
+        if self.test_break() or stop_requested():
+            raise _Stopped()
+
+    def _render(self, depsgraph):
+        scene = depsgraph.scene
+        settings = scene.splatline.render
+        camera_obj = self.camera_override or scene.camera
+        if camera_obj is None:
+            raise ValueError(f"scene {scene.name!r} has no camera")
+        full = camera_from_blender(scene, camera_obj, depsgraph)
+        r = scene.render
+        region = render_region(full.width, full.height, r.use_border,
+                               (r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y))
+        self.update_stats("", "Splatline | gathering splats")
+        items = collect_items(depsgraph)
+        self._check()
+        # One setting for the whole scene, so view layers do not swap renderers mid-job.
+        want_depth = any(layer.use and layer.use_pass_z for layer in scene.view_layers)
+        renderer, fresh = _HOLDER.get(settings.renderer, want_depth)
+        if fresh and want_depth and not renderer.has_depth:  # once per job, not per frame
+            self.report({"WARNING"}, f"Splatline: {_HOLDER.label} has no depth pass: "
+                                     "Depth holds the background value everywhere")
+        self.update_stats("", f"Splatline | {_HOLDER.label} | "
+                              f"{sum(i.splats.count for i in items):,} splats")
+        result = self.begin_result(0, 0, region.width, region.height,
+                                   layer=depsgraph.view_layer.name)
+        try:
+            if (result.resolution_x, result.resolution_y) != (region.width, region.height):
+                raise ValueError(f"render result is {result.resolution_x}x{result.resolution_y}, "
+                                 f"expected the region {region.width}x{region.height}")
+            # One view, or each eye of a stereo/multi-view render.
+            for view in [v.name for v in result.views]:
+                self.active_view_set(view)
+                camera = self._view_camera(scene, camera_obj, depsgraph)
+                out = renderer.render(items, region_camera(camera, region), settings.options())
+                self._check()
+                rgba = to_scene_linear(out.rgba)
+                if not r.film_transparent:  # the evaluated world: its colour may be animated
+                    rgba = composite_over(rgba, world_background(depsgraph.scene_eval.world))
+                _write_view(result, view, rgba, blender_depth(out.depth))
+        except BaseException:
+            self.end_result(result, cancel=True)
+            raise
+        self.end_result(result)
+        self.update_progress(1.0)
+
+    def _view_camera(self, scene, camera_obj, depsgraph):
+        """The camera of the active view: Blender offsets it per eye in multi-view renders."""
+        obj = camera_obj.evaluated_get(depsgraph)
+        return camera_from_blender(scene, camera_obj, depsgraph,
+                                   matrix_world=self.camera_model_matrix(obj),
+                                   shift_x=self.camera_shift_x(obj))
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+
+    def view_update(self, context, depsgraph):
+        # Rendered viewport shading: read the splats when the depsgraph changes, not per redraw.
+        self._view_items = collect_items(depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        """Rendered viewport shading: the world (or nothing) behind the viewport's splat drawing.
+
+        The viewport framebuffer is display space; with the Standard view that is sRGB,
+        the space the splats are blended in.
+        """
+        import gpu
+
+        from ...core.colorspace import linear_to_srgb
+        from .. import viewport
+
+        scene = depsgraph.scene_eval
+        framebuffer = gpu.state.active_framebuffer_get()
+        if scene.render.film_transparent:
+            framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0))
+        else:
+            background = linear_to_srgb(world_background(scene.world))
+            framebuffer.clear(color=(*(float(c) for c in background), 1.0))
+        items = getattr(self, "_view_items", None)
+        if items is None:
+            items = self._view_items = collect_items(depsgraph)
+        region, rv3d = context.region, context.region_data
+        if items and region is not None and rv3d is not None:
+            gpu.state.depth_test_set("NONE")
+            viewport.draw_items(items, rv3d.view_matrix, rv3d.window_matrix,
+                                (region.width, region.height))
+
+
+def _write_view(result, view, rgba, depth):
+    passes = result.layers[0].passes
+    passes.find_by_name("Combined", view).rect.foreach_set(bottom_up(rgba))
+    depth_pass = passes.find_by_name("Depth", view)
+    if depth_pass is not None:
+        depth_pass.rect.foreach_set(bottom_up(depth))
+
+
+def world_background(world) -> tuple[float, float, float]:
+    """The scene-linear colour the splats go over when Film > Transparent is off.
+
+    Pass the EVALUATED world (`depsgraph.scene_eval.world`): node socket values and
+    world.color may be keyframed or driven, and only the evaluated copy holds their
+    value at the frame being rendered (the original keeps whatever was last written).
+
+    `world.color` is only the world's viewport display colour; Cycles and EEVEE render
+    the world's node tree (in Blender 5.0 every world has one: `World.use_nodes` is
+    deprecated and always True, so it is not consulted). So:
+    - no world: black, as Blender's engines give;
+    - the active World Output's Surface fed (through reroutes) by an unmuted Background
+      node whose Color and Strength inputs are both plain values: Color x Strength,
+      the constant background Cycles/EEVEE would render;
+    - anything else (no node tree, nothing or another shader at the output, or a
+      Background whose Color or Strength comes from other nodes such as a sky or
+      environment texture, which this engine does not evaluate): `world.color`, the
+      one flat colour the user chose for that world (and what was used before).
+    """
+    if world is None:
+        return (0.0, 0.0, 0.0)
+    background = _background_node(world.node_tree)
+    if background is not None:
+        colour, strength = background.inputs["Color"], background.inputs["Strength"]
+        if not (colour.is_linked or strength.is_linked):
+            s = float(strength.default_value)
+            return tuple(float(c) * s for c in colour.default_value[:3])
+    return tuple(float(c) for c in world.color)
+
+
+def _background_node(tree):
+    """The Background node feeding the active World Output's Surface, or None."""
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None:
+        return None
+    socket = output.inputs["Surface"]
+    for _ in range(len(tree.nodes)):  # follow reroutes; bounded, so a cycle cannot hang
+        links = [link for link in socket.links if link.is_valid and not link.is_muted]
+        if not links:
+            return None
+        node = links[0].from_node
+        if node.bl_idname == "NodeReroute":
+            socket = node.inputs[0]
+            continue
+        return node if node.bl_idname == "ShaderNodeBackground" and not node.mute else None
+    return None
+
+
+@bpy.app.handlers.persistent
+def _job_started(*_args):
+    _SIGINT.job_started(bpy.app.background)
+
+
+@bpy.app.handlers.persistent
+def _job_finished(*_args):
+    _HOLDER.close()
+    _SIGINT.job_ended()
+
+
+_JOB_HANDLERS = (("render_init", _job_started), ("render_complete", _job_finished),
+                 ("render_cancel", _job_finished))
+
+
+def register():
+    bpy.utils.register_class(SplatlineRenderEngine)
+    render_panel.register()
+    for name, fn in _JOB_HANDLERS:
+        getattr(bpy.app.handlers, name).append(fn)
+
+
+def unregister():
+    for name, fn in _JOB_HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        while fn in handlers:
+            handlers.remove(fn)
+    _HOLDER.close()
+    _SIGINT.job_ended()
+    render_panel.unregister()
+    bpy.utils.unregister_class(SplatlineRenderEngine)

@@ -1,0 +1,57 @@
+"""The engine's Blender-GPU path: the viewport's drawing code into a GPUOffScreen.
+
+It needs no wheel and no GL driver of its own: Blender's backend (OpenGL, Vulkan,
+Metal) does the drawing, so a final render works wherever Blender's viewport does.
+It runs on the thread where Blender's GPU context is current: render() of an engine
+with bl_use_gpu_context = True (the moderngl path keeps its context on its own thread).
+
+Same semantics as the other renderers except two things a quad rasterizer in Blender's
+gpu module does not do: early termination (as moderngl), and the depth pass (its
+per-pixel search needs render targets and shaders the viewport code does not have),
+so RenderOutput.depth is +inf everywhere and the engine says so once.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...core.scene import RenderOutput
+from ..viewport import DrawSettings, ItemDisplay, ViewportRenderer
+from ..viewport.offscreen import draw_camera
+
+MAX_SH_DEGREE = 3  # what the shared shaders evaluate (shaders/splat_math.glsl)
+
+
+def backend_name() -> str:
+    """Blender's GPU backend, e.g. 'OPENGL', 'VULKAN', 'METAL'."""
+    import gpu
+
+    try:
+        return str(gpu.platform.backend_type_get())
+    except Exception:  # older builds, or no GPU yet: the label only
+        return "unknown backend"
+
+
+class GpuModuleRenderer:
+    """render(items, camera, options) -> RenderOutput, like every renderer."""
+
+    has_depth = False
+
+    def __init__(self):
+        # Sorting inline: a final frame must draw its own order, not the last one.
+        self._viewport = ViewportRenderer(worker=False)
+
+    def render(self, items, camera, options) -> RenderOutput:
+        settings = DrawSettings(sync_sort=True, linear_output=False,
+                                antialiased=options.antialiased,
+                                capped_extent=options.capped_extent)
+        # No frustum dilation tuning, no viewport display overrides: the splats as they are.
+        display = ItemDisplay(max_sh_degree=MAX_SH_DEGREE, key_bits=options.key_bits)
+        rgba = draw_camera(items, camera, settings=settings, displays=[display] * len(items),
+                           renderer=self._viewport, background=options.background)
+        depth = np.full(rgba.shape[:2], np.inf, np.float32)
+        return RenderOutput(rgba=np.ascontiguousarray(rgba), depth=depth)
+
+    def close(self) -> None:
+        # Textures and the shader are shared between Blender's GPU contexts, so they
+        # may go when the job ends, on whichever thread that is.
+        self._viewport.close()

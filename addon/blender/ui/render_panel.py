@@ -1,0 +1,101 @@
+"""Render properties panel for the Splatline engine (registered by engine.register)."""
+import bpy
+
+ENGINE = "SPLATLINE"
+
+
+class SPLATLINE_PT_render(bpy.types.Panel):
+    bl_label = "Splatline"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {ENGINE}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.splatline.render
+        layout.prop(settings, "renderer")
+        _draw_path(layout, settings.renderer)
+        col = layout.column(heading="Quality")
+        col.prop(settings, "antialiased")
+        col.prop(settings, "capped_extent")
+        # Quad rasterizers cannot stop a pixel early; only the reference renderer can.
+        if settings.renderer == "REFERENCE":
+            col.prop(settings, "early_termination")
+        col = layout.column(heading="Sorting")
+        col.prop(settings, "key_bits")
+        sub = col.row()
+        sub.active = settings.renderer in {"AUTO", "OFFSCREEN"}
+        sub.prop(settings, "gpu_sort")
+        layout.prop(context.scene.render, "film_transparent")
+
+
+def path_text(kind: str) -> str:
+    """What the panel says about the path: the last render's, else what will be tried."""
+    from ..render import paths as render_paths
+
+    label = render_paths.last_label()
+    if label:
+        return f"Last render: {label}"
+    if kind == "AUTO" and not render_paths.moderngl_installed():
+        return "Will use: Blender GPU module (fallback: moderngl not installed)"
+    return "Path is chosen at the first render"
+
+
+def _draw_path(layout, kind: str) -> None:
+    row = layout.row()
+    row.alignment = "RIGHT"
+    text = path_text(kind)
+    row.label(text=text, icon="ERROR" if "fallback" in text else "INFO")
+
+
+classes = (SPLATLINE_PT_render,)
+
+# Blender's own panels show only for the engines in their COMPAT_ENGINES: without these,
+# a Splatline scene would have no Format, Frame Range, Output, Encoding, Metadata, Colour
+# Management or camera Lens panels. Only the panels whose settings the engine honours.
+BUILTIN_PANELS = (
+    "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_time_stretching",
+    "RENDER_PT_output", "RENDER_PT_output_color_management", "RENDER_PT_output_views",
+    "RENDER_PT_output_pixel_density", "RENDER_PT_encoding", "RENDER_PT_encoding_video",
+    "RENDER_PT_encoding_audio", "RENDER_PT_stamp", "RENDER_PT_stamp_note", "RENDER_PT_stamp_burn",
+    "RENDER_PT_post_processing", "RENDER_PT_color_management",
+    "RENDER_PT_color_management_advanced", "RENDER_PT_color_management_curves",
+    "RENDER_PT_color_management_white_balance", "RENDER_PT_color_management_working_space",
+    "VIEWLAYER_PT_context_layer", "VIEWLAYER_PT_layer", "VIEWLAYER_PT_layer_passes",
+    "VIEWLAYER_PT_workbench_layer_passes_data",  # Combined and Z: the passes the engine writes
+    "WORLD_PT_context_world", "WORLD_PT_custom_props", "WORLD_PT_animation",
+    "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "CAMERA_PT_presets",
+    "DATA_PT_camera_safe_areas", "DATA_PT_camera_safe_areas_center_cut", "CAMERA_PT_safe_areas_presets",
+    "DATA_PT_camera_background_image", "DATA_PT_camera_display",
+    "DATA_PT_camera_display_composition_guides", "DATA_PT_camera_animation",
+    "DATA_PT_custom_props_camera", "DATA_PT_context_pointcloud", "DATA_PT_pointcloud_attributes",
+    "DATA_PT_custom_props_pointcloud", "OBJECT_PT_visibility",
+)
+
+
+def _builtin_panels():
+    for name in BUILTIN_PANELS:
+        panel = getattr(bpy.types, name, None)  # absent in some Blender versions
+        if panel is not None and isinstance(getattr(panel, "COMPAT_ENGINES", None), set):
+            yield panel
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    for panel in _builtin_panels():
+        panel.COMPAT_ENGINES.add(ENGINE)
+
+
+def unregister():
+    for panel in _builtin_panels():
+        panel.COMPAT_ENGINES.discard(ENGINE)
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -84,7 +84,7 @@ def test_bake_round_trip_plays_back_per_frame(bpy_empty, tmp_path):
 
 
 def test_export_evaluated_ply_and_splat(bpy_empty, tmp_path):
-    from addon.blender.data.sequences import export_evaluated
+    from addon.blender.evaluate.bake import export_evaluated
 
     bpy = bpy_empty
     src, _ = animated_source(bpy, tmp_path)

@@ -140,3 +140,26 @@ def test_the_cycle_finder_finds_a_planted_cycle():
 
 def test_no_import_cycles_in_addon():
     assert cycles(GRAPH) == []
+
+
+# The rooms of addon/blender/, lowest first: a module may import its own room and rooms below
+# it, never one above or beside it (ops/ and ui/ share a floor and do not read each other).
+ROOMS = {"data": 0, "props": 1, "evaluate": 2, "viewport": 3, "render": 4, "ops": 5, "ui": 5,
+         "demo": 6}
+
+
+def _room(name: str):
+    parts = name.split(".")
+    return parts[2] if len(parts) > 3 and parts[:2] == ["addon", "blender"] else None
+
+
+def test_blender_rooms_import_downwards_only():
+    assert {_room(n) for n in SOURCES} - {None} == set(ROOMS), "a room without a floor"
+    for name, targets in GRAPH.items():
+        room = _room(name)
+        if room is None:
+            continue
+        for target in targets:
+            other = _room(target)
+            if other is not None and other != room:
+                assert ROOMS[other] < ROOMS[room], f"{name} ({room}) imports {target} ({other})"

@@ -60,7 +60,7 @@ def test_viewport_keeps_linked_and_local_apart(twins):
 
 
 def test_bake_and_export_write_the_objects_own_splats(twins, tmp_path):
-    from addon.blender.data.sequences import bake_frames, export_evaluated
+    from addon.blender.evaluate.bake import bake_frames, export_evaluated
 
     bpy, local, linked, local_splats, linked_splats = twins
     path = tmp_path / "linked.ply"

@@ -7,6 +7,7 @@ import importlib
 
 _MODULES = (
     "props.root",         # Object.splatline and Scene.splatline property groups
+    "evaluate.items",     # the base-splat cache and the handlers that invalidate it
     "ops.io",             # import/export operators, menus, FileHandler
     "ops.camera_track",   # File > Import > Splat Camera Track
     "ops.sequence",       # splat sequence import, bake
@@ -14,6 +15,7 @@ _MODULES = (
     "viewport",           # SpaceView3D draw handler
     "ui.viewport",        # the viewport's display and statistics panels
     "render.engine",      # the Splatline RenderEngine
+    "ui.render_panel",    # its Render-properties panel; opts built-in panels in (COMPAT_ENGINES)
     "ui.sidebar",         # the N sidebar's Splatline tab
     "ops.presets",        # render-output preset menu and operators
     "ops.effect_presets", # effect preset menu (appended to the effect stack panel)

@@ -1,10 +1,8 @@
-"""Sequence import, evaluated export and bake: the bpy-facing functions behind sequence_ops.
+"""Sequence import: the bpy-facing side of core/sequence.py behind ops/sequence.py.
 
 import_sequence   a folder (or one numbered file of it) -> ONE object showing frame k at time t;
                   its PointCloud holds the first frame, the frames stay on disk.
-export_evaluated  the object's evaluated splats at the depsgraph's frame -> .ply / .splat,
-                  with the look folded in (core/bake.py says exactly what is folded).
-bake_frames       a frame range -> numbered PLYs that import_sequence reads back.
+Writing evaluated splats (export, bake) reads the evaluation, so it lives in evaluate/bake.py.
 """
 from __future__ import annotations
 
@@ -12,13 +10,8 @@ import os
 
 import bpy
 
-from ...core import formats
 from ...core import sequence as core_sequence
-from ...core.bake import baked_splats
-from ...core.errors import SplatFormatError
-from ...core.reframe import reframe
-from ..evaluate.items import collect_items
-from .files import WRITE_AXES, import_file, object_axes
+from .files import import_file
 
 ALIGN_FILE_NUMBERS = "FILE_NUMBERS"   # file number N shows at scene frame N (a bake's round trip)
 ALIGN_SCENE_START = "SCENE_START"     # the first file shows at the scene's start frame
@@ -94,51 +87,3 @@ def import_sequence(context, path, *, align=ALIGN_FILE_NUMBERS, loop_mode=core_s
         context.scene.frame_start = settings.start_frame
         context.scene.frame_end = settings.start_frame + pattern.count - 1
     return obj
-
-
-def evaluated_item(obj, depsgraph):
-    """evaluate.py's RenderItem for obj (matched by the item key's name_full: a linked
-    object may share its .name with a local one)."""
-    for item in collect_items(depsgraph):
-        if item.key is not None and item.key[0] == obj.name_full:
-            return item
-    raise LookupError(f"object {obj.name!r} is not a visible splat object in the view layer")
-
-
-def export_evaluated(obj, depsgraph, path) -> None:
-    """Write obj's evaluated splats at the depsgraph's frame to .ply or .splat, object-local."""
-    fmt = formats.format_for_output(path)
-    try:
-        splats = baked_splats(evaluated_item(obj, depsgraph))
-    except LookupError as exc:
-        raise SplatFormatError(path, str(exc)) from None
-    splats.axes = object_axes(obj)
-    if splats.count == 0:
-        raise SplatFormatError(path, f"object {obj.name!r} has no splats at this frame")
-    formats.write(path, reframe(splats, WRITE_AXES[fmt]), fmt)
-
-
-def bake_paths(directory, frame_start, frame_end, prefix="frame_", digits=4, ext=".ply"):
-    return [(f, os.path.join(directory, f"{prefix}{str(f).zfill(digits)}{ext}"))
-            for f in range(frame_start, frame_end + 1)]
-
-
-def bake_frames(context, obj, directory, frame_start, frame_end, prefix="frame_", digits=4):
-    """Write one numbered PLY per scene frame; a generator yielding (frame, path) after each,
-    so an operator can show progress and stop between frames. The scene's frame is restored
-    when the generator finishes or is closed."""
-    if frame_end < frame_start:
-        raise ValueError(f"empty frame range {frame_start}..{frame_end}")
-    if frame_start < 0:
-        raise ValueError("bake frames are file numbers and cannot be negative")
-    directory = bpy.path.abspath(directory)
-    os.makedirs(directory, exist_ok=True)
-    scene = context.scene
-    restore = (scene.frame_current, scene.frame_subframe)
-    try:
-        for frame, path in bake_paths(directory, frame_start, frame_end, prefix, digits):
-            scene.frame_set(frame)
-            export_evaluated(obj, context.evaluated_depsgraph_get(), path)
-            yield frame, path
-    finally:
-        scene.frame_set(restore[0], subframe=restore[1])

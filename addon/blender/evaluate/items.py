@@ -22,22 +22,13 @@ from ...core import look as core_look
 from ...core.effects import evaluate_stack
 from ...core.scene import RenderItem
 from . import effect_params
-from ..data.pointcloud import BASE, is_splat_data, splats_from_pointcloud, value_key
+from ..data.pointcloud import (BASE, is_splat_object, plays_sequence, splats_from_pointcloud,
+                               value_key)
 
 try:
     from . import sequence_frames as sequence_runtime
 except ImportError:  # the sequences layer is optional
     sequence_runtime = None
-
-
-def _is_sequence(obj) -> bool:
-    settings = getattr(getattr(obj, "splatline", None), "sequence", None)
-    return bool(getattr(settings, "enabled", False))
-
-
-def is_splat_object(obj) -> bool:
-    return (obj is not None and obj.type == "POINTCLOUD"
-            and (is_splat_data(obj.data) or _is_sequence(obj)))
 
 
 def splat_objects(depsgraph):
@@ -139,7 +130,7 @@ _MORPH = effect_params.MorphCache()
 def base_splats(obj_eval, depsgraph):
     """THE SEAM: (SplatSet, key) of an object before look and effects, at the depsgraph's
     frame. Equal keys mean identical splats. Sequence objects come from sequence_runtime."""
-    if sequence_runtime is not None and _is_sequence(obj_eval):
+    if sequence_runtime is not None and plays_sequence(obj_eval):
         frame = sequence_runtime.sequence_frame(obj_eval, depsgraph)
         if frame is not None:
             return frame.splats, ("sequence", obj_eval.original.name_full) + tuple(frame.key)

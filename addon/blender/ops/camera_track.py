@@ -12,19 +12,15 @@ from bpy_extras.io_utils import ImportHelper
 from ...core.camtrack import read_track
 from ...core.errors import SplatFormatError
 from ..data.capture_camera import add_track_camera
-from ..data.pointcloud import is_splat_data
+from ..data.pointcloud import is_splat_object
 
 
 def _reference(context):
     """The splat object the track's coordinates belong to (None: an unmoved RDF capture)."""
     active = context.active_object
-    if _is_splat(active):
+    if is_splat_object(active, with_splat_data=True):
         return active
-    return next((o for o in context.scene.objects if _is_splat(o)), None)
-
-
-def _is_splat(obj) -> bool:
-    return obj is not None and obj.type == "POINTCLOUD" and is_splat_data(obj.data)
+    return next((o for o in context.scene.objects if is_splat_object(o, with_splat_data=True)), None)
 
 
 class IMPORT_SCENE_OT_splatline_camera_track(bpy.types.Operator, ImportHelper):

@@ -11,8 +11,7 @@ from bpy_extras import anim_utils
 
 from ...core import effect_presets as core
 from ..evaluate import effect_params
-from ..evaluate.items import is_splat_object
-from ..data.pointcloud import read_positions
+from ..data.pointcloud import is_splat_object, read_positions
 from .presets import find_preset, list_presets
 
 USER_SUBDIR = "presets/splatline/effects"

@@ -10,6 +10,7 @@ import re
 import bpy
 from bpy.props import EnumProperty
 
+from ..data.pointcloud import is_splat_object
 from ..evaluate import items as evaluate
 from ..evaluate.effect_params import channel_fcurves as _channel_fcurves
 from ..props.effect import FIELDS, TYPES
@@ -61,7 +62,7 @@ class _EffectOperator:
 
     @classmethod
     def poll(cls, context):
-        return evaluate.is_splat_object(context.object)
+        return is_splat_object(context.object)
 
     def finish(self, context):
         context.object.update_tag(refresh={"TIME"})
@@ -176,7 +177,7 @@ class _ObjectPanel:
 
     @classmethod
     def poll(cls, context):
-        return evaluate.is_splat_object(context.object)
+        return is_splat_object(context.object)
 
 
 class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
@@ -244,13 +245,4 @@ classes = (SPLATLINE_OT_effect_add, SPLATLINE_OT_effect_remove, SPLATLINE_OT_eff
            SPLATLINE_PT_look_crop, SPLATLINE_PT_effects)
 
 
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-    evaluate.register()
-
-
-def unregister():
-    evaluate.unregister()
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -9,7 +9,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper, poll_file_object_dro
 
 from ...core.errors import SplatFormatError
 from ..data.files import export_object, import_file_with_report, object_axes
-from ..data.pointcloud import is_splat_data
+from ..data.pointcloud import is_splat_object
 
 _AXES_ENUM = [
     ("AUTO", "From File", "Y down, z forward for .ply, .splat, .spz and .sog (the .spz frame splat-transform "
@@ -136,7 +136,7 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
 
     @classmethod
     def poll(cls, context):
-        return any(_is_splat_object(o) for o in context.selected_objects)
+        return any(is_splat_object(o, with_splat_data=True) for o in context.selected_objects)
 
     def _root(self) -> str:
         """The chosen path without any known extension: the format picks the extension."""
@@ -147,7 +147,7 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
         return path
 
     def execute(self, context):
-        objects = [o for o in context.selected_objects if _is_splat_object(o)]
+        objects = [o for o in context.selected_objects if is_splat_object(o, with_splat_data=True)]
         if not objects:
             self.report({"ERROR"}, "select a splat object to export")
             return {"CANCELLED"}
@@ -165,10 +165,6 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
             return {"CANCELLED"}
         self.report({"INFO"}, f"wrote {', '.join(written)} ({object_axes(objects[0])} axes)")
         return {"FINISHED"}
-
-
-def _is_splat_object(obj) -> bool:
-    return obj is not None and obj.type == "POINTCLOUD" and is_splat_data(obj.data)
 
 
 class IO_FH_splatline_gaussians(bpy.types.FileHandler):

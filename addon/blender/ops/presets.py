@@ -133,11 +133,4 @@ class SPLATLINE_PT_output_presets(bpy.types.Panel):
 classes = (SPLATLINE_MT_render_presets, SPLATLINE_OT_render_preset_add, SPLATLINE_PT_output_presets)
 
 
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -10,16 +10,16 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ...core.errors import SplatFormatError
 from ..evaluate import sequence_frames as sequence_runtime
-from ..data.sequences import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, bake_frames, export_evaluated,
-                              import_sequence, remap_directories, restore_directories)
+from ..data.sequences import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, import_sequence,
+                              remap_directories, restore_directories)
+from ..data.pointcloud import is_splat_object
+from ..evaluate.bake import bake_frames, export_evaluated
 from ..props.sequence import _LOOP_ITEMS
 
 
 def _splat_object(context):
     obj = context.active_object
-    if obj is not None and obj.type == "POINTCLOUD" and "radiance:base" in obj.data.attributes:
-        return obj
-    return None
+    return obj if is_splat_object(obj, with_splat_data=True) else None
 
 
 class IMPORT_SCENE_OT_splatline_sequence(bpy.types.Operator, ImportHelper):

@@ -7,6 +7,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty)
 
+from ..data.pointcloud import is_splat_object
 from .look import tag_eval
 
 TYPES = (
@@ -36,7 +37,6 @@ def _is_empty(_self, obj):
 
 
 def _is_other_splat_object(self, obj):
-    from ..evaluate.items import is_splat_object
     return obj is not self.id_data and is_splat_object(obj)
 
 

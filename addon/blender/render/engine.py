@@ -14,7 +14,6 @@ import traceback
 import bpy
 
 from ...core.errors import SplatFormatError
-from ..ui import render_panel
 from . import paths as render_paths
 from .camera import camera_from_blender
 from ..evaluate.items import collect_items
@@ -255,7 +254,6 @@ _JOB_HANDLERS = (("render_init", _job_started), ("render_complete", _job_finishe
 
 def register():
     bpy.utils.register_class(SplatlineRenderEngine)
-    render_panel.register()
     for name, fn in _JOB_HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
 
@@ -267,5 +265,4 @@ def unregister():
             handlers.remove(fn)
     _HOLDER.close()
     _SIGINT.job_ended()
-    render_panel.unregister()
     bpy.utils.unregister_class(SplatlineRenderEngine)

@@ -1,4 +1,6 @@
-"""Render properties panel for the Splatline engine (registered by engine.register)."""
+"""Render properties panel for the Splatline engine, and the built-in panels it opts in to.
+
+Registered from blender/__init__._MODULES right after render/engine.py (render/ never imports ui/)."""
 import bpy
 
 ENGINE = "SPLATLINE"
@@ -80,6 +82,9 @@ BUILTIN_PANELS = (
 )
 
 
+_patched: list = []  # the built-in panel classes register() added ENGINE to, for unregister
+
+
 def _builtin_panels():
     for name in BUILTIN_PANELS:
         panel = getattr(bpy.types, name, None)  # absent in some Blender versions
@@ -90,12 +95,18 @@ def _builtin_panels():
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
+    # The one place Splatline edits classes it does not own: Blender's panels read
+    # COMPAT_ENGINES at draw time, so adding ENGINE to the set is how a custom engine gets them.
+    # Only panels that did not list ENGINE already are recorded, so unregister undoes exactly
+    # what register did.
     for panel in _builtin_panels():
-        panel.COMPAT_ENGINES.add(ENGINE)
+        if ENGINE not in panel.COMPAT_ENGINES:
+            panel.COMPAT_ENGINES.add(ENGINE)
+            _patched.append(panel)
 
 
 def unregister():
-    for panel in _builtin_panels():
-        panel.COMPAT_ENGINES.discard(ENGINE)
+    while _patched:
+        _patched.pop().COMPAT_ENGINES.discard(ENGINE)
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..evaluate import items as evaluate
+from ..data.pointcloud import is_splat_object
 from ..props.effect import TYPES
 
 CATEGORY = "Splatline"
@@ -30,7 +30,7 @@ class SPLATLINE_PT_animate(_SidebarPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         obj = context.active_object
-        if not evaluate.is_splat_object(obj):
+        if not is_splat_object(obj):
             layout.label(text="Select a splat object", icon="INFO")
             layout.operator("import_scene.splatline_gaussians", icon="IMPORT")
             return
@@ -76,7 +76,7 @@ class SPLATLINE_PT_animate_output(_SidebarPanel, bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return evaluate.is_splat_object(context.active_object)
+        return is_splat_object(context.active_object)
 
     def draw(self, context):
         col = self.layout.column(align=True)
@@ -89,11 +89,4 @@ class SPLATLINE_PT_animate_output(_SidebarPanel, bpy.types.Panel):
 classes = (SPLATLINE_PT_animate, SPLATLINE_PT_animate_output)
 
 
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..evaluate import items as evaluate
+from ..data.pointcloud import is_splat_object
 
 
 def _mb(n: int) -> str:
@@ -23,7 +23,7 @@ class SPLATLINE_PT_display(bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return evaluate.is_splat_object(context.object) and hasattr(context.object, "splatline")
+        return is_splat_object(context.object) and hasattr(context.object, "splatline")
 
     def draw(self, context):
         layout = self.layout
@@ -71,11 +71,4 @@ class SPLATLINE_PT_viewport_stats(bpy.types.Panel):
 classes = (SPLATLINE_PT_display, SPLATLINE_PT_viewport_stats)
 
 
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)

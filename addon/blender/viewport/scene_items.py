@@ -16,6 +16,7 @@ import bpy
 
 from ..evaluate import items as evaluate
 from ..data import native
+from ..data.pointcloud import is_splat_object
 from .renderer import ItemDisplay
 
 
@@ -171,7 +172,7 @@ class SceneItems:
         depsgraph = context.evaluated_depsgraph_get()
         view_layer, space = context.view_layer, context.space_data
         for obj_eval in depsgraph.objects:
-            if obj_eval.type != "POINTCLOUD" or not evaluate.is_splat_object(obj_eval) \
+            if obj_eval.type != "POINTCLOUD" or not is_splat_object(obj_eval) \
                     or not evaluate.shown(obj_eval):
                 continue
             if native.drawn_natively(obj_eval.data):  # Blender 5.3+ draws it: never twice

@@ -39,8 +39,8 @@ scene.render.engine = "SPLATLINE"
 scene.render.resolution_x, scene.render.resolution_y = 96, 64
 scene.render.resolution_percentage = 100
 scene.render.film_transparent = True
-scene.render.image_settings.media_type = "IMAGE"
-scene.render.image_settings.file_format = "PNG"
+from bl_ext.user_default.splatline.addon.blender.compat import set_file_format  # shipped in the zip
+set_file_format(scene.render.image_settings, "PNG")
 scene.render.image_settings.color_mode = "RGBA"
 scene.render.filepath = out_png
 bpy.ops.render.render(write_still=True)

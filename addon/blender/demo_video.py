@@ -14,6 +14,7 @@ import os
 
 import bpy
 
+from .compat import set_file_format
 from .presets import apply_render_preset
 
 SCENE_NAME = "Splatline Video"
@@ -92,8 +93,7 @@ def still(scene, frame: int, path: str) -> str:
     Rendered as a one-frame animation: a still render of a scene that is not the window's
     does not advance the Image node's sequence frame (measured: it reads black)."""
     image = scene.render.image_settings
-    image.media_type = "IMAGE"
-    image.file_format = "PNG"
+    set_file_format(image, "PNG")
     image.color_mode = "RGB"
     image.color_depth = "8"
     image.compression = 100

@@ -50,3 +50,29 @@ def world_node_tree(world):
     if _use_nodes_is_live(world) and not world.use_nodes:
         world.use_nodes = True  # 4.5: bpy.data.worlds.new() has no tree until this
     return world.node_tree
+
+
+def new_compositor(scene, name: str):
+    """(tree, socket): a fresh compositor for `scene` and the input its result must feed.
+
+    5.0: a CompositorNodeTree group on scene.compositing_node_group, out through its Group
+    Output's Image socket. 4.5: scene.use_nodes gives the scene its own (embedded) tree,
+    out through a Composite node."""
+    import bpy
+
+    if "compositing_node_group" in scene.bl_rna.properties:
+        tree = bpy.data.node_groups.new(name, "CompositorNodeTree")
+        tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+        scene.compositing_node_group = tree
+        return tree, tree.nodes.new("NodeGroupOutput").inputs[0]
+    scene.use_nodes = True
+    tree = scene.node_tree
+    tree.nodes.clear()  # 4.5 starts it with Render Layers -> Composite
+    return tree, tree.nodes.new("CompositorNodeComposite").inputs["Image"]
+
+
+def compositor_tree(scene):
+    """The scene's compositor node tree (None if it has none), on 4.5 or 5.x."""
+    if "compositing_node_group" in scene.bl_rna.properties:
+        return scene.compositing_node_group
+    return scene.node_tree

@@ -63,13 +63,13 @@ def _row(bpy, scene, renderer, width, height):
 
 
 def main():
+    from addon.blender.compat import set_file_format
     from addon.cli import blender_session
     from addon.gl import OffscreenRenderer
 
     bpy = blender_session.start()
     scene = _scene(bpy)
-    scene.render.image_settings.media_type = "IMAGE"
-    scene.render.image_settings.file_format = "PNG"
+    set_file_format(scene.render.image_settings, "PNG")
     with tempfile.TemporaryDirectory() as tmp, OffscreenRenderer() as renderer:
         count = sum(len(o.data.points) for o in scene.objects if o.type == "POINTCLOUD")
         print(f"guitar.ply, {count:,} splats, GL: {renderer.gl_info.get('GL_RENDERER', '?')}")

@@ -102,7 +102,10 @@ def guitar_scene(bpy, testdata, frames, width, height, count):
 
 
 def read_exr_parts(path):
-    """{part name: (H, W, C) float32 top-down} for every part of a multi-part EXR."""
+    """{part name: (H, W, C) float32 top-down} for every part of a multi-part EXR.
+
+    Blender 5.0 writes a multilayer EXR as one part per pass ("ViewLayer.Combined");
+    4.5 writes one part of "ViewLayer.Combined.R"... channels: split those by pass."""
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(str(path))
@@ -112,11 +115,44 @@ def read_exr_parts(path):
         while inp.seek_subimage(index, 0):
             spec = inp.spec()
             name = spec.getattribute("name") or str(index)
-            parts[name] = np.asarray(inp.read_image(index, 0, 0, spec.nchannels, "float"))
+            pixels = np.asarray(inp.read_image(index, 0, 0, spec.nchannels, "float"))
+            if spec.getattribute("name"):
+                parts[name] = pixels
+            else:
+                parts.update(_split_by_pass(spec.channelnames, pixels) or {name: pixels})
             index += 1
     finally:
         inp.close()
     return parts
+
+
+def exr_colour_formats(path) -> set:
+    """Storage types ("half", "float") of an EXR's R, G, B, A channels, every part.
+
+    Per channel: 4.5's single-part multilayer file keeps Depth.Z float beside half colour."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(str(path))
+    assert inp is not None, oiio.geterror()
+    formats, index = set(), 0
+    try:
+        while inp.seek_subimage(index, 0):
+            spec = inp.spec()
+            formats |= {str(spec.channelformat(i)) for i, n in enumerate(spec.channelnames)
+                        if n.rsplit(".", 1)[-1] in ("R", "G", "B", "A")}
+            index += 1
+    finally:
+        inp.close()
+    return formats
+
+
+def _split_by_pass(channels, pixels):
+    """{"ViewLayer.Combined": (H, W, C)} from single-part channels named "<pass>.<chan>"."""
+    passes = {}
+    for i, channel in enumerate(channels):
+        if "." in channel:
+            passes.setdefault(channel.rsplit(".", 1)[0], []).append(i)
+    return {name: pixels.reshape(*pixels.shape[:2], -1)[..., idx] for name, idx in passes.items()}
 
 
 def read_image(path):

@@ -8,8 +8,10 @@ import pytest
 
 from addon.blender.data.pointcloud import value_key
 from addon.core import formats
+from webp_support import needs_straight_webp
 
 
+@needs_straight_webp
 @pytest.mark.parametrize("name,obj_name", [("guitar.sog", "guitar"), ("test64.glb", "test64"),
                                            ("test64_sog_unbundled/meta.json", "test64_sog_unbundled")])
 def test_operator_imports_sog_and_glb(bpy_empty, testdata, name, obj_name):

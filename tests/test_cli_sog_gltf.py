@@ -9,10 +9,12 @@ import pytest
 
 from addon.core.formats import detect_format, read
 from test_cli_formats import cli
+from webp_support import needs_straight_webp
 
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 
 
+@needs_straight_webp
 @pytest.mark.parametrize("name,fmt", [("guitar.sog", "sog"), ("test64_sog_unbundled/meta.json", "sog"),
                                       ("guitar.glb", "glb")])
 def test_info(testdata, name, fmt):
@@ -23,6 +25,7 @@ def test_info(testdata, name, fmt):
     assert (info["format"], info["count"], info["sh_degree"]) == (fmt, s.count, s.sh_degree)
 
 
+@needs_straight_webp
 @pytest.mark.parametrize("ext", [".glb", ".gltf"])
 def test_convert_sog_to_gltf_keeps_every_value(testdata, tmp_path, ext):
     out = tmp_path / f"t{ext}"

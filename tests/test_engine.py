@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from addon.core.colorspace import linear_to_srgb
-from engine_scene import (add_camera, add_splats, flat_splats, guitar_scene, read_exr_parts,
-                          read_image, set_output, setup_render)
+from engine_scene import (add_camera, add_splats, exr_colour_formats, flat_splats, guitar_scene,
+                          read_exr_parts, read_image, set_output, setup_render)
 
 W, H = 160, 120
 
@@ -94,10 +94,7 @@ def test_half_float_exr_matches_float(bpy_empty, tmp_path):
     bpy.ops.render.render(write_still=True)
     set_output(scene, "EXR", tmp_path / "half", half=True)
     bpy.ops.render.render(write_still=True)
-    import OpenImageIO as oiio
-
-    spec = oiio.ImageInput.open(str(tmp_path / "half.exr")).spec()
-    assert spec.format == oiio.TypeDesc("half")
+    assert exr_colour_formats(tmp_path / "half.exr") == {"half"}
     full = read_exr_parts(tmp_path / "full.exr")["ViewLayer.Combined"]
     half = read_exr_parts(tmp_path / "half.exr")["ViewLayer.Combined"]
     assert full[..., 3].max() > 0.9
@@ -199,13 +196,19 @@ def test_missing_camera_is_one_clear_error(bpy_empty):
         bpy.ops.render.render()
 
 
+PANELS_SINCE_5_0 = {"RENDER_PT_color_management_advanced",
+                    "RENDER_PT_color_management_working_space", "VIEWLAYER_PT_context_layer"}
+
+
 def test_blender_output_panels_show_for_the_engine(_bpy_registered):
     from addon import register, unregister
     from addon.blender.ui.render_panel import BUILTIN_PANELS
 
     bpy = _bpy_registered
     found = [getattr(bpy.types, name) for name in BUILTIN_PANELS if hasattr(bpy.types, name)]
-    assert len(found) == len(BUILTIN_PANELS), "every listed panel exists in Blender 5.0"
+    missing = {name for name in BUILTIN_PANELS if not hasattr(bpy.types, name)}
+    # Only panels Blender 5.0 added may be absent (4.5): any other miss is a wrong name.
+    assert missing <= PANELS_SINCE_5_0, missing
     assert all("SPLATLINE" in panel.COMPAT_ENGINES for panel in found)
     unregister()
     try:

@@ -160,8 +160,9 @@ def test_gpu_path_percentage_border_and_world(bpy_empty, testdata, tmp_path):
 
 
 def test_gpu_path_animation_reuses_one_renderer(bpy_empty, testdata, tmp_path):
-    """Frames of one job share the renderer (textures uploaded once), each frame its own
-    view; the job's end releases it."""
+    """Frames of one job share the renderer, each frame its own view; the job's end
+    releases it. Its GPU textures live for one frame only: they must be freed inside
+    render(), where Blender's GPU context is current (Blender 4.5 aborts otherwise)."""
     from addon.blender.render import engine
     from engine_scene import orbit_keys, set_output
 
@@ -180,7 +181,8 @@ def test_gpu_path_animation_reuses_one_renderer(bpy_empty, testdata, tmp_path):
     finally:
         bpy.app.handlers.render_post.remove(hook)
     assert len(seen) == 3 and all(r is seen[0] for r in seen)
-    assert seen[0]._viewport.stats.uploads == 3, "pos, shape, sh: once for the job"
+    assert seen[0]._viewport.stats.uploads == 3 * 3, "pos, shape, sh: once a frame, freed in render()"
+    assert seen[0]._viewport.gpu is None, "no GPU object outlives render()"
     assert not engine._HOLDER.alive
     from engine_scene import read_exr_parts
 

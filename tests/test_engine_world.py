@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from addon.blender.compat import world_node_tree
 from engine_scene import (add_camera, add_splats, flat_splats, read_exr_parts, set_output,
                           setup_render)
 
@@ -22,6 +23,7 @@ def _scene(bpy):
     scene = setup_render(bpy, W, H, transparent=False)
     world = scene.world = bpy.data.worlds.new("World")
     world.color = DISPLAY_COLOUR
+    world_node_tree(world)  # 4.5's new world has no tree until it uses nodes
     return scene, world
 
 

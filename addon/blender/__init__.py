@@ -3,6 +3,7 @@
 The order matters: property groups before the operators and panels that use them,
 and unregister runs in reverse.
 """
+import atexit
 import importlib
 
 _MODULES = (
@@ -28,6 +29,18 @@ def _modules():
     return [importlib.import_module(f".{name}", __name__) for name in _MODULES]
 
 
+def _unregister_at_exit():
+    """Tear the add-on down before the bpy module does.
+
+    bpy 4.5 frees its space types and other globals in C++ static destructors after
+    Python has finalised: with our draw handler still on SpaceView3D the process dies
+    with SIGSEGV at exit (gdb: cb_customdata_free -> PyGILState_Ensure), and with the
+    rest still registered it can hang in a destructor. atexit runs LIFO, so this runs
+    before bpy's own exit hook. Inside Blender, add-ons are disabled (unregister drops
+    this hook) before Blender tears down, so it never runs there."""
+    unregister()
+
+
 def register():
     done = []
     try:
@@ -38,8 +51,10 @@ def register():
         for module in reversed(done):
             module.unregister()
         raise
+    atexit.register(_unregister_at_exit)
 
 
 def unregister():
+    atexit.unregister(_unregister_at_exit)
     for module in reversed(_modules()):
         module.unregister()

@@ -29,6 +29,7 @@ import time
 
 from . import UserError
 from .capture_scene import CAMERA_HELP, is_blend
+from ..blender.compat import media_type, set_file_format
 
 FORMATS = ("EXR", "PNG", "MP4")
 _BOOL = {"1": True, "true": True, "on": True, "yes": True,
@@ -111,25 +112,22 @@ def set_engine_option(settings, text: str) -> None:
 
 
 def configure_output(scene, fmt: str, out_dir: str, half: bool = False) -> None:
-    """Blender's output settings for one of FORMATS (media_type goes before file_format)."""
+    """Blender's output settings for one of FORMATS (through compat: 5.0 wants media_type first)."""
     render, image = scene.render, scene.render.image_settings
     render.filepath = os.path.join(os.path.abspath(out_dir), "frame_####")
     render.use_file_extension = True
     if fmt == "EXR":
-        image.media_type = "MULTI_LAYER_IMAGE"
-        image.file_format = "OPEN_EXR_MULTILAYER"
+        set_file_format(image, "OPEN_EXR_MULTILAYER")
         image.color_depth = "16" if half else "32"
         image.exr_codec = "ZIP"
         for layer in scene.view_layers:
             layer.use_pass_z = True
     elif fmt == "PNG":
-        image.media_type = "IMAGE"
-        image.file_format = "PNG"
+        set_file_format(image, "PNG")
         image.color_mode = "RGBA" if render.film_transparent else "RGB"
         image.color_depth = "8"
     elif fmt == "MP4":
-        image.media_type = "VIDEO"
-        image.file_format = "FFMPEG"
+        set_file_format(image, "FFMPEG")
         image.color_mode = "RGB"
         render.ffmpeg.format = "MPEG4"
         render.ffmpeg.codec = "H264"
@@ -209,7 +207,7 @@ def _prepare(bpy, args):
         configure_output(scene, args.format, args.out, args.half)
     else:
         scene.render.filepath = os.path.join(os.path.abspath(args.out), "frame_####")
-    if scene.render.image_settings.media_type == "VIDEO":
+    if media_type(scene.render.image_settings) == "VIDEO":
         _check_video_size(scene)
     if not args.keep_stamp:
         for field in UNREPRODUCIBLE_STAMPS:

@@ -2,7 +2,8 @@
 import bpy
 scene = bpy.context.scene
 image = scene.render.image_settings
-image.media_type = 'MULTI_LAYER_IMAGE'  # must come before file_format in Blender 5.0+
+if hasattr(image, 'media_type'):  # Blender 5.0+ picks it before file_format; 4.5 has none
+    image.media_type = 'MULTI_LAYER_IMAGE'
 image.file_format = 'OPEN_EXR_MULTILAYER'
 image.color_mode = 'RGBA'
 image.color_depth = '16'

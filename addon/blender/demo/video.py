@@ -14,6 +14,7 @@ import os
 
 import bpy
 
+from ..compat import compositor_tree, new_compositor, set_file_format
 from ..ops.presets import apply_render_preset
 
 SCENE_NAME = "Splatline Video"
@@ -35,27 +36,23 @@ def encoding_scene(source, first_frame: str, count: int, layer: str | None = Non
     _copy_colour_management(source, scene)
     scene.frame_start, scene.frame_end = 1, count
     try:
-        scene.compositing_node_group = _tree(first_frame, count, layer)
+        _fill_tree(*new_compositor(scene, SCENE_NAME), first_frame, count, layer)
     except BaseException:
         remove_scene(scene)
         raise
     return scene
 
 
-def _tree(first_frame: str, count: int, layer):
+def _fill_tree(tree, output, first_frame: str, count: int, layer) -> None:
     image = bpy.data.images.load(first_frame, check_existing=False)
     if image.source == "FILE":  # a movie stays a movie
         image.source = "SEQUENCE"
-    tree = bpy.data.node_groups.new(SCENE_NAME, "CompositorNodeTree")
     node = tree.nodes.new("CompositorNodeImage")
     node.image = image
     node.frame_start, node.frame_duration, node.frame_offset = 1, count, 0
     if layer is not None:
         node.layer = layer
-    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
-    output = tree.nodes.new("NodeGroupOutput")
-    tree.links.new(node.outputs[0], output.inputs[0])  # Combined, or a movie's Image
-    return tree
+    tree.links.new(node.outputs[0], output)  # Combined, or a movie's Image
 
 
 def _copy_colour_management(source, scene) -> None:
@@ -67,10 +64,11 @@ def _copy_colour_management(source, scene) -> None:
 
 def remove_scene(scene) -> None:
     """The scene, its node tree and its image, leaving bpy.data as it was."""
-    tree = scene.compositing_node_group
+    tree = compositor_tree(scene)
     images = [n.image for n in tree.nodes if getattr(n, "image", None)] if tree else []
+    standalone = tree is not None and not tree.is_embedded_data  # 4.5's goes with the scene
     bpy.data.scenes.remove(scene)
-    if tree is not None:
+    if standalone:
         bpy.data.node_groups.remove(tree)
     for image in images:
         bpy.data.images.remove(image)
@@ -92,8 +90,7 @@ def still(scene, frame: int, path: str) -> str:
     Rendered as a one-frame animation: a still render of a scene that is not the window's
     does not advance the Image node's sequence frame (measured: it reads black)."""
     image = scene.render.image_settings
-    image.media_type = "IMAGE"
-    image.file_format = "PNG"
+    set_file_format(image, "PNG")
     image.color_mode = "RGB"
     image.color_depth = "8"
     image.compression = 100

@@ -11,6 +11,8 @@ import pathlib
 import bpy
 from bl_operators.presets import AddPresetBase
 
+from ..compat import has_media_type
+
 BUNDLED = pathlib.Path(__file__).resolve().parents[3] / "presets"  # <root>/addon/blender/ops/presets.py
 RENDER_SUBDIR = "splatline/render"
 
@@ -73,8 +75,10 @@ class SPLATLINE_OT_render_preset_add(AddPresetBase, bpy.types.Operator):
     preset_menu = "SPLATLINE_MT_render_presets"
     preset_subdir = RENDER_SUBDIR
     preset_defines = ["scene = bpy.context.scene", "image = scene.render.image_settings"]
+    # 4.5 has no image.media_type (compat.has_media_type): only save it where it exists.
     preset_values = [
-        "image.media_type", "image.file_format", "image.color_mode", "image.color_depth",
+        *(["image.media_type"] if has_media_type(bpy.types.ImageFormatSettings) else []),
+        "image.file_format", "image.color_mode", "image.color_depth",
         "image.exr_codec", "scene.render.resolution_percentage",
         "scene.render.ffmpeg.format", "scene.render.ffmpeg.codec",
         # The codec settings the bundled video presets choose (prores_422.py, h264_mp4.py):

@@ -16,6 +16,7 @@ import bpy
 from ...core.errors import SplatFormatError
 from . import paths as render_paths
 from .camera import camera_from_blender
+from ..compat import world_uses_nodes
 from ..evaluate.items import collect_items
 from .film import (blender_depth, bottom_up, composite_over, region_camera, render_region,
                    to_scene_linear)
@@ -194,8 +195,8 @@ def world_background(world) -> tuple[float, float, float]:
     value at the frame being rendered (the original keeps whatever was last written).
 
     `world.color` is only the world's viewport display colour; Cycles and EEVEE render
-    the world's node tree (in Blender 5.0 every world has one: `World.use_nodes` is
-    deprecated and always True, so it is not consulted). So:
+    the world's node tree where it uses nodes (`compat.world_uses_nodes`: 4.5's
+    World.use_nodes; in 5.0 every world has a tree and use_nodes is deprecated). So:
     - no world: black, as Blender's engines give;
     - the active World Output's Surface fed (through reroutes) by an unmuted Background
       node whose Color and Strength inputs are both plain values: Color x Strength,
@@ -207,7 +208,7 @@ def world_background(world) -> tuple[float, float, float]:
     """
     if world is None:
         return (0.0, 0.0, 0.0)
-    background = _background_node(world.node_tree)
+    background = _background_node(world.node_tree) if world_uses_nodes(world) else None
     if background is not None:
         colour, strength = background.inputs["Color"], background.inputs["Strength"]
         if not (colour.is_linked or strength.is_linked):

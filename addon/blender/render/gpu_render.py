@@ -49,9 +49,12 @@ class GpuModuleRenderer:
         rgba = draw_camera(items, camera, settings=settings, displays=[display] * len(items),
                            renderer=self._viewport, background=options.background)
         depth = np.full(rgba.shape[:2], np.inf, np.float32)
+        # Free the GPU textures here, where Blender's GPU context is current. Blender 4.5
+        # aborts (epoxy: no current EGL context) when they are freed at job end, from the
+        # render_complete handler; so each frame uploads again: the fallback path trades
+        # speed for working everywhere.
+        self._viewport.close()
         return RenderOutput(rgba=np.ascontiguousarray(rgba), depth=depth)
 
     def close(self) -> None:
-        # Textures and the shader are shared between Blender's GPU contexts, so they
-        # may go when the job ends, on whichever thread that is.
-        self._viewport.close()
+        self._viewport.close()  # holds no GPU objects between frames (see render)

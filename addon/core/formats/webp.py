@@ -11,10 +11,12 @@ back as stored. OpenImageIO multiplies straight alpha into the colour on read un
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import pathlib
 import sys
+import tempfile
 
 import numpy as np
 
@@ -49,13 +51,38 @@ def oiio(path=None):
                                  "Blender and the bpy module), which is not importable here")
 
 
-def read_rgba(path, max_pixels: int, label=None) -> np.ndarray:
+@functools.cache
+def keeps_straight_alpha() -> bool:
+    """Whether this OpenImageIO writes and reads back RGBA WebP bytes unchanged. Blender
+    4.5's (OpenImageIO 3.0.6) multiplies alpha into the colour on read whatever it is told,
+    which no unpremultiply can undo exactly (alpha 1 leaves colour 0), so SOG is refused
+    there rather than decoded wrong. Probed once, on a 2x1 image."""
+    probe = np.array([[[200, 100, 50, 1], [7, 250, 128, 128]]], np.uint8)
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "probe.webp")
+        try:
+            write_rgba(path, probe, check=False)
+            return bool(np.array_equal(read_rgba(path, 2, check=False), probe))
+        except SplatFormatError:
+            return False
+
+
+def _check_codec(label) -> None:
+    if not keeps_straight_alpha():
+        raise SplatFormatError(label, f"this OpenImageIO ({oiio(label).VERSION_STRING}) does not keep "
+                                      "WebP alpha as stored, which SOG's data images need; use Blender "
+                                      "5.0 or newer (or its bpy module) for SOG")
+
+
+def read_rgba(path, max_pixels: int, label=None, check=True) -> np.ndarray:
     """(H, W, 4) uint8 pixels of a WebP file, alpha as stored.
 
     The size comes from the header first and is checked against max_pixels before the
     pixels are decoded, so a tiny file claiming a huge image allocates nothing."""
     label = label or path
     io = oiio(label)
+    if check:
+        _check_codec(label)
     config = io.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)
     inp = io.ImageInput.open(os.fspath(path), config)
@@ -78,9 +105,11 @@ def read_rgba(path, max_pixels: int, label=None) -> np.ndarray:
     return np.ascontiguousarray(px, np.uint8)
 
 
-def write_rgba(path, pixels: np.ndarray) -> None:
+def write_rgba(path, pixels: np.ndarray, check=True) -> None:
     """Write (H, W, 4) uint8 pixels as lossless WebP (lossy would break codebook indices)."""
     io = oiio(path)
+    if check:
+        _check_codec(path)
     h, w, ch = pixels.shape
     spec = io.ImageSpec(w, h, ch, io.UINT8)
     spec.attribute("compression", "lossless")

@@ -44,18 +44,10 @@ def bpy_empty(_bpy_registered):
     return bpy
 
 
-def _bundled_site_packages():
-    """Blender's bundled Python packages (OpenImageIO, ...) shipped inside the bpy wheel."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("bpy")
-    if spec is None or not spec.submodule_search_locations:
-        return None
-    base = pathlib.Path(list(spec.submodule_search_locations)[0])
-    hits = sorted(base.glob("*/python/lib/python3.*/site-packages"))
-    return hits[0] if hits else None
-
+# Blender's bundled Python packages (OpenImageIO, ...) inside the bpy wheel: found the way the
+# command line finds them (core's webp module), appended so the venv's own numpy wins.
+from addon.core.formats.webp import _bundled_site_packages  # noqa: E402
 
 _site = _bundled_site_packages()
-if _site is not None and str(_site) not in sys.path:
-    sys.path.append(str(_site))  # appended: the venv's own numpy must win
+if _site is not None and _site not in sys.path:
+    sys.path.append(_site)

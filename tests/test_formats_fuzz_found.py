@@ -20,19 +20,11 @@ from addon.core.formats.ply import write_ply
 from addon.core.formats.splat import RECORD
 from addon.core.formats.synth import random_splats
 from addon.core.splats import SplatSet
+from test_bad_input_formats import fails
 from webp_support import STRAIGHT_WEBP
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-
-def fails(path, *words, **opts):
-    with pytest.raises(SplatFormatError) as info:
-        read(path, **opts)
-    msg = str(info.value).lower()
-    assert str(path).lower() in msg, msg
-    for w in words:
-        assert w in msg, msg
-    return msg
 
 
 def _ply_with_rotations(tmp_path, rotations) -> str:

@@ -206,6 +206,22 @@ class FrameState:
             if obj is not None:
                 obj.release()
 
+    def preprocess_records(self, items, camera, options) -> dict:
+        """Run only the upload and preprocess stages and read their output back, for tests
+        that pin the compute shader to core/project.py: (N, 4) float32 rec0, rec1, rec2 and
+        the (N,) sort depth, in item order. Culled splats hold rec1 = 0, depth +inf (their
+        rec0 and rec2 are left as they were)."""
+        self.cache.begin_frame()
+        objects = [self.cache.get(item) for item in items]
+        n = sum(obj.count for obj in objects)
+        self._ensure(max(n, 1))
+        if n:
+            self._preprocess(items, objects, camera, options)
+        out = {k: np.frombuffer(self.arrays[k].read(size=16 * n), np.float32).reshape(n, 4).copy()
+               for k in ("rec0", "rec1", "rec2")}
+        out["depth"] = np.frombuffer(self.arrays["depth"].read(size=4 * n), np.float32).copy()
+        return out
+
 
 def tiles(width: int, height: int):
     for y0 in range(0, height, MAX_TILE):

@@ -102,3 +102,47 @@ def test_cache_key_follows_what_the_kernel_reads(bpy_empty, testdata):
     fast = _item(bpy, obj, 96)
     assert not np.array_equal(slow.splats.positions, fast.splats.positions)
     assert slow.key != fast.key
+
+
+def test_a_store_during_prune_waits_for_it(bpy_empty, monkeypatch):
+    """The race above made deterministic: prune is held in the middle of walking the entries
+    while another thread stores one. With the lock the store waits until the walk is done;
+    without it the walk breaks ("dictionary changed size during iteration")."""
+    cache = evaluate.BaseCache()
+    tiny = SplatSet.allocate(1, 0)
+    monkeypatch.setattr(evaluate, "splats_from_pointcloud", lambda data: tiny.subset(np.arange(1)))
+    monkeypatch.setattr(cache, "key", lambda obj, depsgraph: (("data", obj.name), obj.name, 0, 1, None, 0))
+    walking, stored = threading.Event(), threading.Event()
+
+    class Entries(dict):
+        def __iter__(self):
+            for i, key in enumerate(dict.__iter__(self)):
+                if i == 0 and not walking.is_set():
+                    walking.set()
+                    stored.wait(0.5)  # long enough for a store the lock does not hold off
+                yield key
+
+    class Fake:
+        def __init__(self, name):
+            self.name, self.data = name, None
+
+    cache.entries = Entries({("data", f"deleted{i}"): None for i in range(3)})
+    errors = []
+
+    def store():
+        walking.wait(5)
+        try:
+            cache.get(Fake("new"), None)
+        except Exception as exc:  # noqa: BLE001 - the test reports whatever breaks
+            errors.append(exc)
+        stored.set()
+
+    writer = threading.Thread(target=store)
+    writer.start()
+    try:
+        cache.prune()
+    except RuntimeError as exc:
+        errors.append(exc)
+    writer.join()
+    assert not errors, errors[:1]
+    assert not cache.entries  # the deleted ones pruned, and "new" by its own get (no such data)

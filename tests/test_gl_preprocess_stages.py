@@ -27,8 +27,9 @@ The natural scale of each field, from the float64 values (its condition):
 - colour: the SH polynomials (INRIA constants) and their gradients are below SH_LIP on the
   unit sphere (checked below); with the direction off by K EPS the colour is off by
   K EPS (0.5 + C0 |dc| + SH_LIP sum |rest|).
-A semantic slip is far outside these bounds: a low-pass term left out, J's clamp moved or
-dropped, SH in the wrong frame (each was tried by editing the shader; see the report).
+A semantic slip is far outside these bounds. Each of these edits of splat_math.glsl fails
+here: the low-pass left off one diagonal, or 0.3001 instead of 0.3; J's clamp dropped; the
+quaternion's norm off by 1e-4; the sign of one band-1 SH term flipped.
 """
 from __future__ import annotations
 
@@ -100,6 +101,7 @@ def edge_scene() -> tuple[list[RenderItem], Camera]:
             add(tx, ty, 2.0, 0.5)
     for s in 10.0 ** np.arange(-8, 4):                          # tiny to huge
         add(rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(0.5, 8.0), s)
+    add(0.02, 0.01, 0.3, (1e6, 1e6, 1e-3))                      # axes past SL_MAX_AXIS_PX
     for _ in range(20):                                         # needles and discs, anisotropy 1e6
         add(rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(0.5, 4.0),
             rng.permutation([1e-1, 1e-7, 1e-4]))
@@ -128,7 +130,7 @@ def edge_scene() -> tuple[list[RenderItem], Camera]:
 
 
 # -- the bounds ---------------------------------------------------------------------------
-def bounds(item: RenderItem, camera: Camera, p, options) -> dict:
+def bounds(item: RenderItem, camera: Camera, p, options, anchor: float = 0.0) -> dict:
     """Allowed |GPU - float64| per field and splat (see the module's docstring)."""
     world = np.asarray(item.world, np.float64)
     o2c = np.asarray(camera.world_to_camera, np.float64) @ world
@@ -156,9 +158,8 @@ def bounds(item: RenderItem, camera: Camera, p, options) -> dict:
         dext = np.minimum(dext2 / (2 * p.extent), np.sqrt(dext2)) + K * EPS * p.extent
         if options.capped_extent:
             dext = np.where(ext2 > 9 + dext2, 0.0, dext)  # min(3, ...): flat where it cuts
-        lam = (p.radius / p.extent) ** 2
-        dlam = 2 * dcov
-        dr = dext * np.sqrt(lam) + p.extent * dlam / (2 * np.sqrt(lam)) + K * EPS * p.radius
+        lam = (p.radius / p.extent) ** 2  # lambda_max, from core's own radius
+        dr = dext * np.sqrt(lam) + p.extent * dcov / np.sqrt(lam) + K * EPS * p.radius
         sp = item.splats
         sh = 0.5 + SH_C0 * np.abs(sp.sh_dc).max(1)
         if item.effective_sh_degree > 0:
@@ -166,8 +167,11 @@ def bounds(item: RenderItem, camera: Camera, p, options) -> dict:
             sh = sh + SH_LIP * np.abs(sp.sh_rest[:, :k]).sum(1).max(1)
         cm = np.asarray(item.color_matrix, np.float64)
         drgb = K * EPS * (np.abs(cm[:, :3]).sum(1).max() * sh + np.abs(cm[:, 3]).max())
+    # sort depth = dot(depth axis, p) + (origin depth - anchor, summed in float64): p itself,
+    # not p - eye, so its scale is |M| |p| plus the offset
+    dsort = K * EPS * (m_norm * np.linalg.norm(pos, axis=1) + abs(o2c[2, 3] + anchor))
     return {"u": du, "v": dv, "conic": dconic, "radius": dr, "depth": dt,
-            "opacity": do, "rgb": drgb, "lambda": dlam}
+            "opacity": do, "rgb": drgb, "sort": dsort}
 
 
 def on_frame(p, camera, slack_u=0.0, slack_r=0.0):
@@ -189,7 +193,7 @@ def compare(items, camera, options, rec) -> dict:
         r = {k: v[base:base + n].astype(np.float64) for k, v in rec.items()}
         base += n
         p = project(item, camera, options.antialiased, options.capped_extent)
-        tol = bounds(item, camera, p, options)
+        tol = bounds(item, camera, p, options, anchor)
         want = on_frame(p, camera)
         got = np.isfinite(r["depth"])
         slack = np.maximum(tol["u"], tol["v"])
@@ -210,7 +214,7 @@ def compare(items, camera, options, rec) -> dict:
             "depth": (r["rec1"][:, 2], p.depth, tol["depth"]),
             "opacity": (r["rec1"][:, 3], p.opacity, tol["opacity"]),
             "rgb": (r["rec2"][:, :3], p.rgb, tol["rgb"][:, None]),
-            "sort depth": (r["depth"], p.depth - anchor, tol["depth"] * 2 + EPS * abs(anchor)),
+            "sort depth": (r["depth"], p.depth - anchor, tol["sort"]),
         }
         capped = _cap_acts(item, camera, p)
         for name, (gpu, ref, allowed) in fields.items():
@@ -222,6 +226,7 @@ def compare(items, camera, options, rec) -> dict:
             worst[name] = max(worst.get(name, 0.0), float(ratio.max()))
         if capped.any():
             _check_cap(r, p, capped & got)
+            worst["cut axes"] = int((capped & got).sum())
     return worst
 
 
@@ -234,10 +239,11 @@ def _cap_acts(item, camera, p) -> np.ndarray:
 
 
 def _check_cap(r, p, sel):
-    """Where an axis is cut, the quad is no larger than three cut axes allow, and smaller
-    than core's uncut one."""
+    """Where an axis is cut, the quad is no larger than three cut axes allow (so smaller
+    than core's uncut one), yet still covers the frame many times over."""
     limit = p.extent[sel] * np.sqrt(3 * CAP ** 2 + 2 * LOW_PASS) * (1 + 1e-5)
-    assert (r["rec1"][sel, 1] <= limit).all()
+    assert (r["rec1"][sel, 1] <= limit).all() and (limit < p.radius[sel]).all()
+    assert (r["rec1"][sel, 1] >= p.extent[sel] * 0.5 * CAP).all()
 
 
 # -- the tests ----------------------------------------------------------------------------
@@ -280,6 +286,7 @@ def test_edge_case_records_match_core_project(renderer, option):
                                                  | ((t - camera.cx) / camera.fx > hi_x))
     assert (clamped & got).sum() >= 4, "the scene must hold visible splats where J is clamped"
     assert not got[p.depth <= camera.near].any(), "splats behind or at the near plane are culled"
+    assert worst.get("cut axes", 0) >= 1, "the scene must hold a splat whose axes the shader cuts"
 
 
 def test_fallback_records_are_core_project_in_back_to_front_order(testdata):

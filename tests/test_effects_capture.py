@@ -344,3 +344,9 @@ def test_every_bundled_preset_has_a_real_capture_test():
         if preset != "morph":  # morph: guitar into test64, both captures by construction
             assert any("CAPTURES" in p for p in params), f"{test} is not run on both captures"
         json.loads((HERE.parent / "presets" / "effects" / f"{preset}.json").read_text())
+    # and through the command line (the must-show), morph with two files
+    cli = ast.parse((HERE / "test_cli_presets_capture.py").read_text())
+    cli_presets = {ast.literal_eval(n.value) for n in cli.body if isinstance(n, ast.Assign)
+                   for t in n.targets if getattr(t, "id", "") == "PRESETS"}
+    (listed,) = cli_presets
+    assert set(listed) | {"morph"} == names, f"not run from the command line: {names - set(listed)}"

@@ -50,7 +50,7 @@ def _guitar():
     up, forward = capture_axes(splats.axes, world)
     width, height, fov = 320, 240, 40.0
     tan_x = math.tan(math.radians(fov) / 2)
-    distance = fit_distance(bounds, tan_x, tan_x * height / width)
+    distance = 0.5 * fit_distance(bounds, tan_x, tan_x * height / width)  # fill the frame
     near, far = clip_range(bounds, distance)
     pose = front_pose(bounds, up, forward, distance)
     cam = simple_camera(width, height, fov, np.linalg.inv(pose), near=near, far=far)

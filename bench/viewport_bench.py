@@ -63,7 +63,7 @@ def _view(step: int) -> np.ndarray:
 
 
 def _projection():
-    from addon.blender.viewport.matrices import projection_matrix
+    from addon.core.clip_space import projection_matrix
     from addon.core.camera import simple_camera
 
     return projection_matrix(simple_camera(WIDTH, HEIGHT, 50.0, np.eye(4), near=0.1, far=100.0))

@@ -44,9 +44,9 @@ def scene(testdata):
 def _viewport_order_is_exact(items, camera, bits) -> bool:
     """The viewport's cull + quantised sort, as its renderer calls it, gives the float64
     reference order for every splat it keeps."""
-    from addon.blender.viewport.gpu_draw import view_constants
-    from addon.blender.viewport.matrices import projection_matrix
-    from addon.blender.viewport.sorting import SortInput, visible_order
+    from addon.blender.viewport.packing import view_constants
+    from addon.core.clip_space import projection_matrix
+    from addon.core.view_order import SortInput, visible_order
 
     proj = projection_matrix(camera)
     _, _, near, far = view_constants(proj, camera.width, camera.height)["frame"]
@@ -103,7 +103,7 @@ def test_meshes_occlude_splats(gpu_ready, scene):
     from gpu_extras.batch import batch_for_shader
 
     from addon.blender.viewport import ViewportRenderer, draw_items, DrawSettings
-    from addon.blender.viewport.matrices import projection_matrix
+    from addon.core.clip_space import projection_matrix
 
     items, camera, _ = scene
     depth = np.concatenate([project(i, camera).depth for i in items])

@@ -71,11 +71,12 @@ def drawable(splats: SplatSet, degree: int) -> np.ndarray:
     return ok
 
 
-def pack_pos(splats: SplatSet, degree: int) -> np.ndarray:
+def pack_pos(splats: SplatSet, ok: np.ndarray) -> np.ndarray:
+    """ok: drawable(splats, degree), cached apart (effects change opacities every frame)."""
     flat = np.zeros((padded(splats.count), 4), np.float32)
     view = flat[:splats.count]
     view[:, :3] = splats.positions
-    view[:, 3] = np.where(drawable(splats, degree), splats.opacities, np.float32(np.nan))
+    view[:, 3] = np.where(ok, splats.opacities, np.float32(np.nan))
     return flat
 
 

@@ -138,16 +138,25 @@ class ViewportRenderer:
         self.stats.uploads += 1
         return time.perf_counter() - start
 
+    def _valid(self, item, degree) -> np.ndarray:
+        """packing.drawable, cached apart from the opacities an effect changes each frame."""
+        s = item.splats
+        return self.packs.get("valid", item, (s.rotations, s.scales, s.sh_dc, s.sh_rest),
+                              lambda: packing.drawable(s, degree), extra=(degree,))[1]
+
     def _update_data(self, items, displays) -> list:
         """Upload changed data textures; returns each item's positions (3, N) for sorting."""
         degrees = [max(0, min(i.sh_degree, d.max_sh_degree, i.splats.sh_degree))
                    for i, d in zip(items, displays)]
         values = max(packing.sh_values(g) for g in degrees)
         by_item = dict(zip(map(id, items), degrees))
-        seconds = self._texture("pos", items, 4,
-                                [(i.splats.positions, i.splats.opacities, i.splats.rotations,
-                                  i.splats.scales, i.splats.sh_dc, i.splats.sh_rest) for i in items],
-                                lambda i: packing.pack_pos(i.splats, by_item[id(i)]), extra=tuple(degrees))
+        start = time.perf_counter()
+        valid = [self._valid(i, g) for i, g in zip(items, degrees)]
+        by_valid = dict(zip(map(id, items), valid))
+        seconds = time.perf_counter() - start
+        seconds += self._texture("pos", items, 4,
+                                 [(i.splats.positions, i.splats.opacities, v) for i, v in zip(items, valid)],
+                                 lambda i: packing.pack_pos(i.splats, by_valid[id(i)]))
         seconds += self._texture("shape", items, packing.SHAPE_VALUES,
                                  [(i.splats.rotations, i.splats.scales, i.splats.sh_dc) for i in items],
                                  lambda i: packing.pack_shape(i.splats))

@@ -18,6 +18,9 @@ Cases: still camera; orbiting (a new view every frame); data changing (opacities
 positions perturbed every frame, as an animated effect does: a new geometry version).
 Baseline: numpy.argsort of the same number of float32 depths, in the same run.
 Goals: still total < 1 ms; orbiting 1M total <= 33 ms; sort <= 0.5x argsort.
+Then viewport_quality: GPU bytes per splat at SH degree 3 (goal <= 128) and the PSNR of
+the drawing against the float64 reference.
+Usage: python -m bench.viewport_bench [N ...] [degree=D]   (default 100k 1M 3M, degree 1)
 """
 from __future__ import annotations
 
@@ -33,6 +36,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from bench import viewport_quality  # noqa: E402  (after the path set-up)
+
 SIZES = (100_000, 1_000_000, 3_000_000)
 FRAMES = {"still": 15, "orbit": 15, "orbit-bg": 7, "data": 5}
 FRAME_GAP = 0.033  # seconds between orbit-bg frames (not timed): the worker sorts meanwhile
@@ -40,11 +45,11 @@ WIDTH, HEIGHT = 64, 48
 DEGREE = 1
 
 
-def _splats(n: int):
+def _splats(n: int, degree: int = DEGREE):
     from addon.core.splats import SplatSet
 
     rng = np.random.default_rng(0)
-    s = SplatSet.allocate(n, DEGREE)
+    s = SplatSet.allocate(n, degree)
     s.positions[:] = rng.normal(0.0, 1.0, (n, 3))
     s.scales[:] = np.exp(rng.uniform(-6.0, -3.0, (n, 3)))
     q = rng.normal(size=(n, 4)).astype(np.float32)
@@ -129,7 +134,7 @@ def _argsort_ms(n: int, repeats: int = 3) -> float:
 
 
 def main(argv=()) -> None:
-    """argv: splat counts to run (default SIZES)."""
+    """argv: splat counts to run (default SIZES), and degree=D for SH degree D (default 1)."""
     import bpy  # noqa: F401  (starts Blender)
     import gpu
 
@@ -138,14 +143,16 @@ def main(argv=()) -> None:
     from addon.core.scene import RenderItem
 
     ensure_gpu()
+    degree = int(next((a.split("=")[1] for a in argv if a.startswith("degree=")), DEGREE))
+    sizes = [int(a) for a in argv if a.isdigit()] or SIZES
     proj = _projection()
-    print(f"viewport drawing path, CPU ms per frame (medians), SH degree {DEGREE}, "
+    print(f"viewport drawing path, CPU ms per frame (medians), SH degree {degree}, "
           f"{WIDTH}x{HEIGHT} GPUOffScreen, 16-bit keys, inline sort")
     print(f"{'splats':>9} {'case':>8} {'sort':>8} {'upload':>8} {'total':>8} {'cpu':>8} {'argsort':>8} "
           f"{'sort/argsort':>12} {'draw*':>9}")
     verdicts = []
-    for n in [int(a) for a in argv] or SIZES:
-        item = RenderItem(_splats(n), key=("bench", 0))
+    for n in sizes:
+        item = RenderItem(_splats(n, degree), key=("bench", 0))
         base = _argsort_ms(n)
         draw_ms = _draw_call_ms(item, proj)
         for case in ("still", "orbit", "orbit-bg", "data"):
@@ -170,6 +177,7 @@ def main(argv=()) -> None:
     print("draw*: one draw call on this machine's llvmpipe (software GPU), not in total")
     for goal, ok in verdicts:
         print(f"  {'met ' if ok else 'MISSED'}  {goal}")
+    viewport_quality.main()
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""Viewport memory and image quality: bytes per splat the drawing path keeps on the GPU,
+"""Viewport memory and image quality: bytes per splat the drawing path keeps on the GPU
+(read from its textures: data and draw order, then the preprocess pass's view records),
 and PSNR of its drawing (viewport/offscreen.py, RGBA32F target) against the float64
 reference renderer. Part of `python -m bench viewport` (viewport_bench.main prints it).
 
@@ -14,25 +15,9 @@ from pathlib import Path
 import numpy as np
 
 TESTDATA = Path(__file__).resolve().parents[1].parent / "shared" / "testdata"
-# bytes per texel of the texture formats the viewport uses
-TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4, "RG32F": 8, "RGBA16": 8, "R16F": 2}
-
-
 def _psnr(a, b) -> float:
     mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
     return math.inf if mse == 0 else 10.0 * math.log10(1.0 / mse)
-
-
-def per_splat_textures(renderer) -> dict:
-    """{name: bytes} of the renderer's GPU textures whose size grows with the splat count,
-    read from the textures themselves (width x height x the format's texel size)."""
-    gpu = renderer.gpu
-    out = {}
-    for name, tex in gpu.textures.items():
-        if name == "objects":
-            continue
-        out[name] = tex.width * tex.height * TEXEL_BYTES[tex.format]
-    return out
 
 
 def _guitar():
@@ -117,7 +102,7 @@ def memory(n: int = 16384) -> dict:
     cam = simple_camera(64, 48, 50.0, look_at((0.0, -30.0, 0.0), (0.0, 0.0, 0.0)), near=0.1, far=100.0)
     renderer = ViewportRenderer()
     draw_camera([RenderItem(s)], cam, renderer=renderer)
-    sizes = {k: v / n for k, v in per_splat_textures(renderer).items()}
+    sizes = {k: v / n for k, v in renderer.gpu.per_splat_bytes().items()}
     renderer.close()
     return sizes
 
@@ -129,8 +114,11 @@ def main() -> None:
 
     ensure_gpu()
     sizes = memory()
-    print("viewport GPU bytes per splat at SH degree 3, by texture: "
-          + ", ".join(f"{k} {v:.1f}" for k, v in sizes.items()) + f"; total {sum(sizes.values()):.1f}")
+    data = {k: v for k, v in sizes.items() if not k.startswith("rec_")}
+    records = {k: v for k, v in sizes.items() if k.startswith("rec_")}
+    print("viewport GPU bytes per splat at SH degree 3: data "
+          + ", ".join(f"{k} {v:.1f}" for k, v in data.items()) + f"; total {sum(data.values()):.1f} "
+          f"(goal <= 128); view records {sum(records.values()):.1f} (preprocess output)")
     for name, db, err, covered in quality():
         print(f"viewport vs float64 reference, {name}: PSNR {db:.1f} dB, max error {err:.2e} "
               f"({covered:.0%} of pixels covered)", flush=True)

@@ -9,7 +9,9 @@ PSNR bound, 60 dB (RMS error <= 1e-3, a quarter of an 8-bit step):
   left is arithmetic.
 - Arithmetic: float32 on the GPU against float64. Relative errors ~1e-6 per operation,
   amplified by exp() of Mahalanobis distances up to 9 and by the 2D covariance of thin
-  splats, stay below 1e-3 per pixel; the RMS over the frame is far lower. A semantic
+  splats, stay below 1e-3 per pixel; the RMS over the frame is far lower. The data's
+  half floats (shape, DC, SH: 11 significant bits, viewport/packing.py) cost more:
+  measured 82.6 dB on this scene, 140.8 dB with float32 data. A semantic
   mistake costs far more: a missing low-pass term on one diagonal gave 39 dB here,
   unrotated SH directions or a mirrored conic cost more still.
 """

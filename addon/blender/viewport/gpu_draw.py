@@ -25,7 +25,7 @@ SHADERS = pathlib.Path(__file__).resolve().parents[3] / "shaders"
 CORNERS = ((-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
 DATA = ("pos", "shape", "sh", "order")
 # per-splat view records the preprocess pass writes: name -> format
-RECORDS = {"rec_pos": "RGBA32F", "rec_conic": "RGBA32F", "rec_color": "RGBA16F"}
+RECORDS = {"rec_pos": "RGBA32F", "rec_conic": "RGBA32F", "rec_color": "RGBA32F"}
 FORMATS = {"pos": "RGBA32F", "shape": "RGBA16F", "sh": "RGBA16F", "order": "R32F", "objects": "RGBA32F"}
 TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4}
 

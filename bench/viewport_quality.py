@@ -5,7 +5,7 @@ reference renderer. Part of `python -m bench viewport` (viewport_bench.main prin
 
 Scenes: guitar.ply (90,854 splats, degree 0) with the object rotation its RDF axes get on
 import, framed from the front at 320x240; a degree-3 scene: test64.ply and 3,000
-generated degree-3 splats (SH rest ~ N(0, 0.25)) around it, 160x120.
+generated degree-3 splats (core/formats/synth.random_splats) around it, 160x120.
 """
 from __future__ import annotations
 
@@ -45,21 +45,15 @@ def _guitar():
 def _degree3(n: int = 3000):
     from addon.core.camera import look_at, simple_camera
     from addon.core.formats import read
+    from addon.core.formats.synth import random_splats
     from addon.core.scene import RenderItem
-    from addon.core.splats import SplatSet
 
     capture = read(TESTDATA / "test64.ply")
     centre = capture.positions.astype(np.float64).mean(0)
     spread = float(np.linalg.norm(capture.positions.std(0)))
-    rng = np.random.default_rng(5)
-    s = SplatSet.allocate(n, 3)
-    s.positions[:] = rng.normal(0.0, spread, (n, 3)) + centre
-    s.scales[:] = np.exp(rng.normal(np.log(0.05 * spread), 0.5, (n, 3)))
-    q = rng.normal(size=(n, 4))
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.uniform(0.05, 0.95, n)
-    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
-    s.sh_rest[:] = rng.normal(0.0, 0.25, s.sh_rest.shape)
+    s = random_splats(n, 3, seed=5)  # positions ~ N(0, 2): brought to the capture's size
+    s.positions[:] = s.positions * np.float32(spread / 2.0) + centre.astype(np.float32)
+    s.scales[:] *= np.float32(spread / 2.0)
     eye = centre + np.array([0.4, -1.0, 0.35]) * 2.5 * spread
     cam = simple_camera(160, 120, 50.0, look_at(eye, centre), near=0.01 * spread, far=100.0 * spread)
     return [RenderItem(capture), RenderItem(s)], cam

@@ -8,7 +8,10 @@
 
 Works in any GPU context Blender provides: the 3D viewport's draw handler, the
 render engine's view_draw, and a GPUOffScreen (tests, benchmarks). Texture formats are
-ones every supported Blender offers (RGBA32F, RGBA16F, R32F; see packing.py).
+ones every supported Blender offers (RGBA32F, RGBA16F, R32F; see packing.py); a texture
+is filled only from a FLOAT Buffer there, so integer formats are not used. gpu.compute
+exists in 4.5 to 5.2 too, but a fragment pass needs no image store and draws the same on
+every backend.
 """
 from __future__ import annotations
 
@@ -24,7 +27,8 @@ from .packing import WIDTH, padded
 SHADERS = pathlib.Path(__file__).resolve().parents[3] / "shaders"
 CORNERS = ((-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
 DATA = ("pos", "shape", "sh", "order")
-# per-splat view records the preprocess pass writes: name -> format
+# per-splat view records the preprocess pass writes: name -> format. float32: a half
+# colour record cost 7 dB against the reference on the bench's degree-3 scene.
 RECORDS = {"rec_pos": "RGBA32F", "rec_conic": "RGBA32F", "rec_color": "RGBA32F"}
 FORMATS = {"pos": "RGBA32F", "shape": "RGBA16F", "sh": "RGBA16F", "order": "R32F", "objects": "RGBA32F"}
 TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4}

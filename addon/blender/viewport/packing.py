@@ -16,7 +16,9 @@ At SH degree 3 that is 16 + 18 + 90 bytes a splat, plus 4 for the draw order (R3
 A stream of halves packs 4 to a texel without regard for splat boundaries: value v of
 splat i is value i * per_splat + v of the stream. Values are rounded to half here
 (round to nearest even, clamped to +-65504), so the upload converts nothing and every
-Blender version and backend holds the same numbers.
+Blender version and backend holds the same numbers (Blender's own float-to-half upload
+keeps NaN in 4.5 but writes 0 in 5.0 and 5.2, and turns inf into 65504: hence the
+validity mark in the float32 opacity).
 Every texture is WIDTH texels wide; texel t lives at (t % WIDTH, t // WIDTH).
 """
 from __future__ import annotations

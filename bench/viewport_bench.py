@@ -18,6 +18,9 @@ Cases: still camera; orbiting (a new view every frame); data changing (opacities
 positions perturbed every frame, as an animated effect does: a new geometry version).
 Baseline: numpy.argsort of the same number of float32 depths, in the same run.
 Goals: still total < 1 ms; orbiting 1M total <= 33 ms; sort <= 0.5x argsort.
+Then viewport_quality: GPU bytes per splat at SH degree 3 (goal <= 128) and the PSNR of
+the drawing against the float64 reference.
+Usage: python -m bench.viewport_bench [N ...] [degree=D]   (default 100k 1M 3M, degree 1)
 """
 from __future__ import annotations
 
@@ -33,6 +36,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from bench import viewport_quality  # noqa: E402  (after the path set-up)
+
 SIZES = (100_000, 1_000_000, 3_000_000)
 FRAMES = {"still": 15, "orbit": 15, "orbit-bg": 7, "data": 5}
 FRAME_GAP = 0.033  # seconds between orbit-bg frames (not timed): the worker sorts meanwhile
@@ -40,11 +45,11 @@ WIDTH, HEIGHT = 64, 48
 DEGREE = 1
 
 
-def _splats(n: int):
+def _splats(n: int, degree: int = DEGREE):
     from addon.core.splats import SplatSet
 
     rng = np.random.default_rng(0)
-    s = SplatSet.allocate(n, DEGREE)
+    s = SplatSet.allocate(n, degree)
     s.positions[:] = rng.normal(0.0, 1.0, (n, 3))
     s.scales[:] = np.exp(rng.uniform(-6.0, -3.0, (n, 3)))
     q = rng.normal(size=(n, 4)).astype(np.float32)
@@ -63,7 +68,7 @@ def _view(step: int) -> np.ndarray:
 
 
 def _projection():
-    from addon.blender.viewport.matrices import projection_matrix
+    from addon.core.clip_space import projection_matrix
     from addon.core.camera import simple_camera
 
     return projection_matrix(simple_camera(WIDTH, HEIGHT, 50.0, np.eye(4), near=0.1, far=100.0))
@@ -93,22 +98,32 @@ def _run(case: str, item, renderer, proj) -> list[tuple[float, float, float, flo
     return rows
 
 
-def _draw_call_ms(item, proj) -> float:
+def _draw_call_ms(item, proj, repeats: int = 3) -> tuple[float, float]:
+    """Median wall and process-CPU ms of one draw call (sort excluded: prepared first),
+    each for a new view, so per-view GPU work (projection, SH) is redone every time; read
+    back to finish it. llvmpipe's threads are this process's: the CPU time is the work
+    done, the wall time adds the wait for a core on a loaded machine."""
     import gpu
 
     from addon.blender.viewport import ViewportRenderer
 
     renderer = ViewportRenderer()
     off = gpu.types.GPUOffScreen(WIDTH, HEIGHT, format="RGBA16F")
+    times, cpu = [], []
     with off.bind():
         fb = gpu.state.active_framebuffer_get()
-        renderer.draw([item], _view(0), proj, (WIDTH, HEIGHT))  # shader and data warm
-        fb.read_color(0, 0, 1, 1, 4, 0, "FLOAT")
-        renderer.draw([item], _view(0), proj, (WIDTH, HEIGHT))
-        fb.read_color(0, 0, 1, 1, 4, 0, "FLOAT")
+        for step in range(repeats + 1):  # the first warms the shader and uploads the data
+            const = renderer.prepare([item], _view(step), proj, (WIDTH, HEIGHT))
+            fb.read_color(0, 0, 1, 1, 4, 0, "FLOAT")
+            start, cpu_start = time.perf_counter(), time.process_time()
+            renderer.gpu.draw(const)
+            fb.read_color(0, 0, 1, 1, 4, 0, "FLOAT")
+            if step:
+                times.append(time.perf_counter() - start)
+                cpu.append(time.process_time() - cpu_start)
     off.free()
     renderer.close()
-    return 1e3 * renderer.stats.draw_seconds
+    return 1e3 * statistics.median(times), 1e3 * statistics.median(cpu)
 
 
 def _argsort_ms(n: int, repeats: int = 3) -> float:
@@ -121,7 +136,8 @@ def _argsort_ms(n: int, repeats: int = 3) -> float:
     return 1e3 * statistics.median(times)
 
 
-def main() -> None:
+def main(argv=()) -> None:
+    """argv: splat counts to run (default SIZES), and degree=D for SH degree D (default 1)."""
     import bpy  # noqa: F401  (starts Blender)
     import gpu
 
@@ -130,16 +146,18 @@ def main() -> None:
     from addon.core.scene import RenderItem
 
     ensure_gpu()
+    degree = int(next((a.split("=")[1] for a in argv if a.startswith("degree=")), DEGREE))
+    sizes = [int(a) for a in argv if a.isdigit()] or SIZES
     proj = _projection()
-    print(f"viewport drawing path, CPU ms per frame (medians), SH degree {DEGREE}, "
+    print(f"viewport drawing path, CPU ms per frame (medians), SH degree {degree}, "
           f"{WIDTH}x{HEIGHT} GPUOffScreen, 16-bit keys, inline sort")
     print(f"{'splats':>9} {'case':>8} {'sort':>8} {'upload':>8} {'total':>8} {'cpu':>8} {'argsort':>8} "
-          f"{'sort/argsort':>12} {'draw*':>9}")
+          f"{'sort/argsort':>12} {'draw*':>9} {'draw cpu':>9}")
     verdicts = []
-    for n in SIZES:
-        item = RenderItem(_splats(n), key=("bench", 0))
+    for n in sizes:
+        item = RenderItem(_splats(n, degree), key=("bench", 0))
         base = _argsort_ms(n)
-        draw_ms = _draw_call_ms(item, proj)
+        draw_ms, draw_cpu = _draw_call_ms(item, proj)
         for case in ("still", "orbit", "orbit-bg", "data"):
             renderer = ViewportRenderer(worker=case == "orbit-bg")
             off = gpu.types.GPUOffScreen(WIDTH, HEIGHT, format="RGBA16F")
@@ -150,7 +168,7 @@ def main() -> None:
             sort, upload, total, cpu = (1e3 * statistics.median(c) for c in zip(*rows))
             ratio = f"{sort / base:.2f}" if sort else "-"
             print(f"{n:>9,} {case:>8} {sort:>8.2f} {upload:>8.2f} {total:>8.2f} {cpu:>8.2f} {base:>8.1f} {ratio:>12} "
-                  f"{draw_ms:>9.1f}", flush=True)
+                  f"{draw_ms:>9.1f} {draw_cpu:>9.1f}", flush=True)
             if case == "still":
                 verdicts.append((f"still {n:,}: total < 1 ms", total < 1.0))
             if case == "orbit":
@@ -159,10 +177,12 @@ def main() -> None:
                     verdicts.append(("orbit 1M: total <= 33 ms", total <= 33.0))
                     verdicts.append(("orbit 1M: cpu <= 33 ms (process CPU time, robust to a loaded machine)",
                                      cpu <= 33.0))
-    print("draw*: one draw call on this machine's llvmpipe (software GPU), not in total")
+    print("draw*: one draw call on this machine's llvmpipe (software GPU), not in total; "
+          "draw cpu: its process CPU time")
     for goal, ok in verdicts:
         print(f"  {'met ' if ok else 'MISSED'}  {goal}")
+    viewport_quality.main()
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

@@ -5,10 +5,12 @@ PSNR bar, and why: the gpu-module path runs the viewport's shaders (the same
 shaders/splat_math.glsl as moderngl) in float32, so it differs from the float64
 reference by rounding plus rare discrete events (a pixel centre within rounding of a
 quad edge or of the 1/255 cut, or a sort-key tie), exactly the error budget of
-test_gl_render.py. Measured on this scene (160x120, Mesa llvmpipe): moderngl 140.8 dB,
-gpu module 139.8 dB. 60 dB, as for moderngl and the viewport, leaves room for other
-GPUs' rounding while any real bug (wrong orientation, a missing colour-space conversion,
-a wrong blend or SH band) costs more than 15 dB.
+test_gl_render.py, plus the viewport's half-float splat data (shape, DC and SH rounded
+to 11 significant bits, viewport/packing.py). Measured on this scene (160x120, Mesa
+llvmpipe): moderngl 140.8 dB, gpu module 80.8 dB (139.5 dB with float32 data). 60 dB, as
+for moderngl and the viewport, leaves room for other GPUs' rounding while any real bug
+(wrong orientation, a missing colour-space conversion, a wrong blend or SH band) costs
+more than 15 dB.
 """
 from __future__ import annotations
 

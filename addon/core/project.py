@@ -207,3 +207,17 @@ def _colours(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> np.ndar
     cm = np.asarray(item.color_matrix, np.float64)
     rgb = rgb @ cm[:, :3].T + cm[:, 3]
     return np.maximum(rgb, 0.0)
+
+
+def camera_in_object(local_to_camera: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(eye, forward): the camera centre and its unit viewing direction (-z) in an object's
+    local frame, from the object-to-camera matrix (float64). pinv: a singular (zero-scale)
+    object gives junk the renderers cull. `forward` is what orthographic views use as every
+    splat's SH direction."""
+    m = np.asarray(local_to_camera, np.float64)
+    with np.errstate(all="ignore"):
+        inv = np.linalg.pinv(m[:3, :3])
+        eye = -inv @ m[:3, 3]
+        forward = inv @ np.array([0.0, 0.0, -1.0])
+        forward = forward / np.linalg.norm(forward)
+    return eye, forward

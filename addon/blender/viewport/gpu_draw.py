@@ -1,7 +1,17 @@
-"""The gpu-module half of the viewport: shader, textures and the instanced draw.
+"""The gpu-module half of the viewport: shaders, textures and the two passes.
+
+1. Preprocess: a fragment pass over the record textures, one fragment per drawn splat
+   (in draw order), computes its projection, footprint and colour once
+   (viewport_preprocess_frag.glsl). It runs only when the data, order, object table
+   or view changed since the records were made.
+2. Quads: one instanced quad per splat, its four vertices read the splat's records.
 
 Works in any GPU context Blender provides: the 3D viewport's draw handler, the
-render engine's view_draw, and a GPUOffScreen (tests, benchmarks).
+render engine's view_draw, and a GPUOffScreen (tests, benchmarks). Texture formats are
+ones every supported Blender offers (RGBA32F, RGBA16F, R32F; see packing.py); a texture
+is filled only from a FLOAT Buffer there, so integer formats are not used. gpu.compute
+exists in 4.5 to 5.2 too, but a fragment pass needs no image store and draws the same on
+every backend.
 """
 from __future__ import annotations
 
@@ -12,23 +22,56 @@ import numpy as np
 import gpu
 from gpu_extras.batch import batch_for_shader
 
-from .packing import OBJECT_TEXELS, WIDTH, padded
+from .packing import WIDTH, padded
 
 SHADERS = pathlib.Path(__file__).resolve().parents[3] / "shaders"
+CORNERS = ((-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
+DATA = ("pos", "shape", "sh", "order")
+# per-splat view records the preprocess pass writes: name -> format. float32: a half
+# colour record cost 7 dB against the reference on the bench's degree-3 scene.
+RECORDS = {"rec_pos": "RGBA32F", "rec_conic": "RGBA32F", "rec_color": "RGBA32F"}
+FORMATS = {"pos": "RGBA32F", "shape": "RGBA16F", "sh": "RGBA16F", "order": "R32F", "objects": "RGBA32F"}
+TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4}
 
 
 def _source(*names: str) -> str:
     return "\n".join((SHADERS / name).read_text() for name in names)
 
 
-def create_shader():
-    info = gpu.types.GPUShaderCreateInfo()
-    for name in ("focal_centre", "jac_bounds", "frame", "proj_z", "misc"):
+QUAD_CONSTANTS = ("frame", "flags")  # the quad pass's share of packing.view_constants
+
+
+def _constants(info, names=("focal_centre", "jac_bounds", "frame", "proj_z", "misc")) -> None:
+    for name in names:
         info.push_constant("VEC4", name)
-    info.push_constant("IVEC4", "sizes")  # texture width, sh texels per splat, 0, 0
+    info.push_constant("IVEC4", "sizes")  # texture width, SH halves per splat, objects, drawn
     info.push_constant("IVEC4", "flags")  # ortho, antialiased, capped extent, linear out
+
+
+def _create(info):
+    shader = gpu.shader.create_from_info(info)
+    del info  # the shader keeps what it needs; the info must outlive only the call
+    return shader
+
+
+def preprocess_shader():
+    info = gpu.types.GPUShaderCreateInfo()
+    _constants(info)
     for slot, name in enumerate(("pos_tex", "shape_tex", "sh_tex", "order_tex", "object_tex")):
         info.sampler(slot, "FLOAT_2D", name)
+    info.vertex_in(0, "VEC2", "corner")
+    for slot, name in enumerate(RECORDS):
+        info.fragment_out(slot, "VEC4", name)
+    info.vertex_source(_source("viewport_preprocess_vert.glsl"))
+    info.fragment_source(_source("splat_math.glsl", "viewport_preprocess_frag.glsl"))
+    return _create(info)
+
+
+def quad_shader():
+    info = gpu.types.GPUShaderCreateInfo()
+    _constants(info, ("frame",))
+    for slot, name in enumerate(RECORDS):
+        info.sampler(slot, "FLOAT_2D", f"{name}_tex")
     info.vertex_in(0, "VEC2", "corner")
     iface = gpu.types.GPUStageInterfaceInfo("splatline_splat")
     iface.smooth("VEC2", "v_offset")
@@ -41,123 +84,125 @@ def create_shader():
     info.fragment_out(0, "VEC4", "frag_color")
     info.vertex_source(_source("splat_math.glsl", "viewport_splat_vert.glsl"))
     info.fragment_source(_source("splat_math.glsl", "viewport_splat_frag.glsl"))
-    shader = gpu.shader.create_from_info(info)
-    del iface, info  # the shader keeps what it needs; the infos must outlive only the call
+    shader = _create(info)
+    del iface
     return shader
 
 
-def float_texture(flat: np.ndarray, channels: int = 4, width: int = WIDTH):
-    """An RGBA32F (channels 4) or R32F (channels 1) texture `width` texels wide from a
-    float32 array already padded to whole rows (packing.padded)."""
+def float_texture(flat: np.ndarray, fmt: str, width: int = WIDTH):
+    """A `fmt` texture `width` texels wide from float32 values already padded to whole rows
+    (packing.padded); RGBA16F takes values packing already rounded to halves."""
+    channels = 1 if fmt == "R32F" else 4
     flat = np.ascontiguousarray(flat, np.float32).reshape(-1)
     texels = flat.size // channels
     if texels % width:
         raise ValueError(f"{texels} texels are not whole rows of {width}")
     buf = gpu.types.Buffer("FLOAT", flat.size, flat)  # wraps the array's memory, no copy
-    fmt = "RGBA32F" if channels == 4 else "R32F"
     return gpu.types.GPUTexture((width, texels // width), format=fmt, data=buf)
 
 
-def texture_bytes(texture, channels: int) -> int:
-    return texture.width * texture.height * channels * 4
+def texture_bytes(texture) -> int:
+    return texture.width * texture.height * TEXEL_BYTES[texture.format]
 
 
 class SplatGPU:
-    """GPU resources of the current splat data: shader, quad batch, textures."""
-
-    CHANNELS = {"pos": 4, "shape": 4, "sh": 4, "order": 1, "objects": 4}
+    """GPU resources of the current splat data: shaders, quad batches, textures, records."""
 
     def __init__(self):
-        self.shader = create_shader()
-        corners = ((-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
-        self.batch = batch_for_shader(self.shader, "TRI_STRIP", {"corner": corners})
+        self.pre_shader = preprocess_shader()
+        self.shader = quad_shader()
+        self.pre_batch = batch_for_shader(self.pre_shader, "TRI_STRIP", {"corner": CORNERS})
+        self.batch = batch_for_shader(self.shader, "TRI_STRIP", {"corner": CORNERS})
         self.textures: dict = {}
-        self.sh_stride = 0
+        self.records: dict = {}
+        self.framebuffer = None
+        self.sh_values = 0
+        self.object_count = 0
         self.order_count = 0
+        self.version = 0           # bumped by every upload: the records go stale
+        self.records_for = None    # (version, constants) the records were made for
+        self.preprocesses = 0      # preprocess passes run so far
 
     def set_texture(self, name: str, flat: np.ndarray) -> None:
-        self.textures[name] = float_texture(flat, self.CHANNELS[name])
+        self.textures[name] = float_texture(flat, FORMATS[name])
+        self.version += 1
 
     def set_order(self, order: np.ndarray) -> None:
         if order.size and int(order.max()) >= 1 << 24:
             raise ValueError("more than 2^24 splats: indices no longer exact in an R32F texture")
         values = np.zeros(padded(max(1, order.size)), np.float32)
         values[:order.size] = order
-        self.textures["order"] = float_texture(values, 1)
+        self.textures["order"] = float_texture(values, "R32F")
         self.order_count = int(order.size)
+        self.version += 1
 
-    def set_objects(self, table: np.ndarray) -> None:
-        self.textures["objects"] = float_texture(table, 4, table.shape[0])
+    def set_objects(self, table: np.ndarray, count: int) -> None:
+        self.textures["objects"] = float_texture(table, "RGBA32F", table.shape[0])
+        self.object_count = count
+        self.version += 1
 
     @property
     def nbytes(self) -> int:
-        return sum(texture_bytes(t, self.CHANNELS[n]) for n, t in self.textures.items())
+        return sum(texture_bytes(t) for t in (*self.textures.values(), *self.records.values()))
 
-    def draw(self, constants: dict) -> None:
-        if not self.order_count or len(self.textures) < len(self.CHANNELS):
-            return
-        shader = self.shader
+    def per_splat_bytes(self) -> dict:
+        """{texture: bytes} of every texture whose size grows with the splat count."""
+        named = {**{n: self.textures[n] for n in DATA if n in self.textures}, **self.records}
+        return {n: texture_bytes(t) for n, t in named.items()}
+
+    def _records_target(self) -> int:
+        rows = padded(max(1, self.order_count)) // WIDTH
+        if not self.records or self.records["rec_pos"].height != rows:
+            self.records = {n: gpu.types.GPUTexture((WIDTH, rows), format=f) for n, f in RECORDS.items()}
+            self.framebuffer = gpu.types.GPUFrameBuffer(color_slots=tuple(self.records.values()))
+            self.records_for = None
+        return rows
+
+    def _bind(self, shader, constants: dict) -> None:
         shader.bind()
         for name, value in constants.items():
             if name == "flags":
                 shader.uniform_int(name, value)
             else:
                 shader.uniform_float(name, value)
-        shader.uniform_int("sizes", (WIDTH, self.sh_stride, 0, 0))
-        for name in ("pos", "shape", "sh", "order"):
-            shader.uniform_sampler(f"{name}_tex", self.textures[name])
-        shader.uniform_sampler("object_tex", self.textures["objects"])
+        shader.uniform_int("sizes", (WIDTH, self.sh_values, self.object_count, self.order_count))
+
+    def preprocess(self, constants: dict) -> None:
+        """Fill the records for this view, unless they already are (the GPU state of the
+        caller: viewport, scissor, depth test and blending are put back)."""
+        rows = self._records_target()
+        key = (self.version, tuple((k, tuple(v)) for k, v in constants.items()))
+        if self.records_for == key:
+            return
+        viewport, scissor = gpu.state.viewport_get(), gpu.state.scissor_get()
+        depth_test, blend = gpu.state.depth_test_get(), gpu.state.blend_get()
+        gpu.state.depth_test_set("NONE")
+        gpu.state.blend_set("NONE")
+        try:
+            with self.framebuffer.bind():
+                gpu.state.viewport_set(0, 0, WIDTH, rows)
+                gpu.state.scissor_set(0, 0, WIDTH, rows)
+                self._bind(self.pre_shader, constants)
+                for name in ("pos", "shape", "sh", "order"):
+                    self.pre_shader.uniform_sampler(f"{name}_tex", self.textures[name])
+                self.pre_shader.uniform_sampler("object_tex", self.textures["objects"])
+                self.pre_batch.draw(self.pre_shader)
+        finally:
+            gpu.state.viewport_set(*viewport)
+            gpu.state.scissor_set(*scissor)
+            gpu.state.depth_test_set(depth_test)
+            gpu.state.blend_set(blend)
+        self.records_for = key
+        self.preprocesses += 1
+
+    def draw(self, constants: dict) -> None:
+        if not self.order_count or any(n not in self.textures for n in (*DATA, "objects")):
+            return
+        self.preprocess(constants)
+        self._bind(self.shader, {k: constants[k] for k in QUAD_CONSTANTS})
+        for name, texture in self.records.items():
+            self.shader.uniform_sampler(f"{name}_tex", texture)
         gpu.state.blend_set("ALPHA_PREMULT")
         gpu.state.depth_mask_set(False)
-        self.batch.draw_instanced(shader, instance_start=0, instance_count=self.order_count)
+        self.batch.draw_instanced(self.shader, instance_start=0, instance_count=self.order_count)
         gpu.state.blend_set("NONE")
-
-
-def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: float,
-                sh_degree: int, mode: int, sh_only: bool, color_matrix: np.ndarray,
-                ortho: bool) -> np.ndarray:
-    """(OBJECT_TEXELS, 4) float32 for one object (layout in viewport_splat_vert.glsl)."""
-    m = np.asarray(local_to_camera, np.float64)
-    lin = m[:3, :3]
-    with np.errstate(all="ignore"):
-        inv = np.linalg.pinv(lin)
-        eye = -inv @ m[:3, 3]  # camera centre in the object's frame
-        fwd = inv @ np.array([0.0, 0.0, -1.0])
-        fwd /= np.linalg.norm(fwd)
-    eye_hi = eye.astype(np.float32)
-    eye_lo = (eye - eye_hi.astype(np.float64)).astype(np.float32)
-    rows = np.zeros((OBJECT_TEXELS, 4), np.float32)
-    rows[0:3, :3] = lin.T  # columns of cam_from_local
-    rows[0, 3], rows[1, 3], rows[2, 3] = splat_scale, opacity_scale, sh_degree
-    rows[3, :3], rows[3, 3] = eye_hi, mode
-    rows[4, :3], rows[4, 3] = eye_lo, float(sh_only)
-    rows[5:8] = np.asarray(color_matrix, np.float32).reshape(3, 4)
-    rows[8, :3] = fwd if ortho else 0.0
-    return rows
-
-
-def view_constants(projection: np.ndarray, width: int, height: int, *, antialiased=False,
-                   capped_extent=False, linear_output=False, point_size=2.0) -> dict:
-    """Push constants from an OpenGL projection matrix and the viewport size in pixels."""
-    p = np.asarray(projection, np.float64)
-    ortho = abs(p[3, 3] - 1.0) < 1e-9 and abs(p[3, 2]) < 1e-12
-    fx, fy = 0.5 * width * p[0, 0], 0.5 * height * p[1, 1]
-    if ortho:
-        cx, cy = 0.5 * width * (1.0 + p[0, 3]), 0.5 * height * (1.0 - p[1, 3])
-        near = (p[2, 3] + 1.0) / p[2, 2]
-        far = (p[2, 3] - 1.0) / p[2, 2]
-    else:
-        cx, cy = 0.5 * width * (1.0 - p[0, 2]), 0.5 * height * (1.0 + p[1, 2])
-        near = p[2, 3] / (p[2, 2] - 1.0)
-        far = p[2, 3] / (p[2, 2] + 1.0)
-    m = 0.15
-    bounds = ((-m * width - cx) / fx, (cy - height - m * height) / fy,
-              (width + m * width - cx) / fx, (cy + m * height) / fy)
-    return {
-        "focal_centre": (fx, fy, cx, cy),
-        "jac_bounds": bounds,
-        "frame": (float(width), float(height), float(near), float(far)),
-        "proj_z": (p[2, 2], p[2, 3], p[3, 2], p[3, 3]),
-        "misc": (float(point_size), 0.0, 0.0, 0.0),
-        "flags": (int(ortho), int(antialiased), int(capped_extent), int(linear_output)),
-    }

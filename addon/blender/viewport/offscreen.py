@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .draw import draw_items
-from .matrices import projection_matrix
+from ...core.clip_space import projection_matrix
 from .renderer import DrawSettings, ViewportRenderer
 
 

@@ -1,28 +1,46 @@
-"""Splat data as float texels: the layout the viewport shaders read (no bpy, no gpu).
+"""The layout the viewport shaders read: splat data as texels, the per-object table and
+the view's push constants (no bpy, no gpu).
 
-Three RGBA32F data textures, so that an effect changing only some fields re-uploads
-only their texture (each is cached by the identity of the arrays it is built from):
-    pos    1 texel per splat:  position xyz (object space), opacity
-    shape  3 texels per splat: rotation w, x, y, z (normalised here); scale xyz,
-           object slot (index into the per-object table); SH DC rgb, 0
-    sh     `stride` texels per splat: the higher SH coefficients, coefficient-major
-           (r, g, b of coefficient 0, then 1, ...), zero-padded to the stride
+Three data textures, so that an effect changing only some fields re-uploads only their
+texture (each is cached by the identity of the arrays it is built from):
+    pos    RGBA32F, 1 texel per splat: position xyz (object space), opacity; the opacity
+           is NaN for a splat no renderer draws (zero or non-finite quaternion, scale or
+           SH), the one validity test the shader makes besides the position's
+    shape  RGBA16F, a stream of SHAPE_VALUES halves per splat: the quaternion's three
+           smallest components (wxyz order, the largest dropped and made positive), the
+           scales, whose signs carry the dropped component's index (bit 0 in x, bit 1 in
+           y: the covariance needs only scale^2), and the SH DC rgb
+    sh     RGBA16F, a stream of `values` halves per splat: the higher SH coefficients,
+           coefficient-major (r, g, b of coefficient 0, then 1, ...), zero-padded
+At SH degree 3 that is 16 + 18 + 90 bytes a splat, plus 4 for the draw order (R32F).
+A stream of halves packs 4 to a texel without regard for splat boundaries: value v of
+splat i is value i * per_splat + v of the stream. Values are rounded to half here
+(round to nearest even, clamped to +-65504), so the upload converts nothing and every
+Blender version and backend holds the same numbers (Blender's own float-to-half upload
+keeps NaN in 4.5 but writes 0 in 5.0 and 5.2, and turns inf into 65504: hence the
+validity mark in the float32 opacity).
 Every texture is WIDTH texels wide; texel t lives at (t % WIDTH, t // WIDTH).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ...core.camera import Camera
+from ...core.clip_space import camera_from_projection
+from ...core.project import camera_in_object, j_clamp_bounds
 from ...core.splats import SplatSet, sh_coeff_count
 
 WIDTH = 4096          # texels per row of every data texture
 MAX_HEIGHT = 16384    # the smallest GL_MAX_TEXTURE_SIZE Blender supports
-SHAPE_TEXELS = 3
-OBJECT_TEXELS = 9     # per-object table row: see gpu_draw.object_rows
+SHAPE_VALUES = 9
+OBJECT_TEXELS = 9     # per-object table row: see object_rows
+HALF_MAX = 65504.0
+HALF_TINY = 2.0 ** -24  # the smallest positive half: stands for a zero scale, keeping its sign
+_OTHERS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
 
 
-def sh_texels(degree: int) -> int:
-    return -(-3 * sh_coeff_count(degree) // 4)
+def sh_values(degree: int) -> int:
+    return 3 * sh_coeff_count(degree)
 
 
 def padded(texels: int) -> int:
@@ -33,61 +51,117 @@ def padded(texels: int) -> int:
     return rows * WIDTH
 
 
-def _alloc(n: int, per_splat: int) -> tuple[np.ndarray, np.ndarray]:
-    """A padded flat (texels, 4) array and its (n, per_splat, 4) view; padding zeroed."""
-    flat = np.empty((padded(n * per_splat), 4), np.float32)
-    flat[n * per_splat:] = 0.0
-    return flat, flat[:n * per_splat].reshape(n, per_splat, 4)
+def _stream(values: int) -> np.ndarray:
+    """A zeroed (texels, 4) float32 array holding `values` values in whole rows."""
+    return np.zeros((padded(-(-values // 4)), 4), np.float32)
 
 
-def pack_pos(splats: SplatSet) -> np.ndarray:
-    flat, view = _alloc(splats.count, 1)
-    view[:, 0, :3] = splats.positions
-    view[:, 0, 3] = splats.opacities
-    return flat
+def halves(a: np.ndarray) -> np.ndarray:
+    """float32 values exactly representable as halves: clamped, rounded, NaN -> 0."""
+    a = np.nan_to_num(np.asarray(a, np.float32), nan=0.0, posinf=HALF_MAX, neginf=-HALF_MAX)
+    return np.clip(a, -HALF_MAX, HALF_MAX).astype(np.float16).astype(np.float32)
 
 
-def pack_shape(splats: SplatSet, slot: int = 0) -> np.ndarray:
-    flat, view = _alloc(splats.count, SHAPE_TEXELS)
+def drawable(splats: SplatSet, degree: int) -> np.ndarray:
+    """(N,) bool: quaternion non-zero and finite, scales and SH up to `degree` finite."""
     q = splats.rotations
-    with np.errstate(all="ignore"):
-        norm = np.sqrt(np.einsum("ij,ij->i", q, q))[:, None]
-        view[:, 0] = np.where(norm > 0, q / norm, q)  # zero/NaN stay, the shader culls them
-    view[:, 1, :3] = splats.scales
-    view[:, 1, 3] = slot
-    view[:, 2, :3] = splats.sh_dc
-    view[:, 2, 3] = 0.0
+    ok = np.isfinite(q).all(1) & (q != 0).any(1)
+    ok &= np.isfinite(splats.scales).all(1) & np.isfinite(splats.sh_dc).all(1)
+    k = sh_coeff_count(max(0, min(degree, splats.sh_degree)))
+    if k:
+        ok &= np.isfinite(splats.sh_rest[:, :k]).reshape(splats.count, -1).all(1)
+    return ok
+
+
+def pack_pos(splats: SplatSet, ok: np.ndarray) -> np.ndarray:
+    """ok: drawable(splats, degree), cached apart (effects change opacities every frame)."""
+    flat = np.zeros((padded(splats.count), 4), np.float32)
+    view = flat[:splats.count]
+    view[:, :3] = splats.positions
+    view[:, 3] = np.where(ok, splats.opacities, np.float32(np.nan))
     return flat
 
 
-def pack_sh(splats: SplatSet, degree: int, stride: int) -> np.ndarray:
-    """Coefficients up to `degree`, `stride` texels per splat (stride >= sh_texels(degree))."""
+def smallest_three(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) the normalised quaternion's three smallest components with the largest made
+    positive (q and -q are one rotation), and (N,) the index of the largest."""
+    q = np.asarray(q, np.float64)
+    with np.errstate(all="ignore"):
+        q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    q = np.nan_to_num(q)  # undrawable splats (pack_pos marks them): any value will do
+    largest = np.argmax(np.abs(q), axis=1)
+    q *= np.where(q[np.arange(q.shape[0]), largest] < 0, -1.0, 1.0)[:, None]
+    return np.take_along_axis(q, _OTHERS[largest], axis=1), largest
+
+
+def pack_shape(splats: SplatSet) -> np.ndarray:
     n = splats.count
-    flat, view = _alloc(n, stride)
+    flat = _stream(n * SHAPE_VALUES)
+    view = flat.reshape(-1)[:n * SHAPE_VALUES].reshape(n, SHAPE_VALUES)
+    three, largest = smallest_three(splats.rotations)
+    view[:, 0:3] = halves(three)
+    scales = np.abs(halves(splats.scales))
+    scales[scales == 0] = HALF_TINY
+    scales[:, 0] *= np.where(largest & 1, -1.0, 1.0)
+    scales[:, 1] *= np.where(largest & 2, -1.0, 1.0)
+    view[:, 3:6] = scales
+    view[:, 6:9] = halves(splats.sh_dc)
+    return flat
+
+
+def pack_sh(splats: SplatSet, degree: int, values: int) -> np.ndarray:
+    """Coefficients up to `degree`, `values` halves per splat (values >= sh_values(degree))."""
+    n = splats.count
+    flat = _stream(n * values)
     k = sh_coeff_count(max(0, min(degree, splats.sh_degree)))
-    flat_view = view.reshape(n, stride * 4)
-    flat_view[:, 3 * k:] = 0.0
-    if k:
-        flat_view[:, :3 * k] = splats.sh_rest[:, :k].reshape(n, 3 * k)
+    if k and n:
+        view = flat.reshape(-1)[:n * values].reshape(n, values)
+        view[:, :3 * k] = halves(splats.sh_rest[:, :k].reshape(n, 3 * k))
     return flat
 
 
 def concatenate(parts: list[np.ndarray], counts: list[int], per_splat: int) -> np.ndarray:
-    """Several objects' padded arrays as one padded array (the first texels of each)."""
-    total = sum(counts)
-    flat = np.empty((padded(total * per_splat), 4), np.float32)
+    """Several objects' streams (`per_splat` values each) as one stream, in order."""
+    flat = _stream(sum(counts) * per_splat)
+    out = flat.reshape(-1)
     start = 0
     for part, n in zip(parts, counts):
-        flat[start:start + n * per_splat] = part[:n * per_splat]
+        out[start:start + n * per_splat] = part.reshape(-1)[:n * per_splat]
         start += n * per_splat
-    flat[start:] = 0.0
     return flat
 
 
-def set_slots(shape: np.ndarray, counts: list[int]) -> None:
-    """Write each object's slot into texel 1's w of its splats (concatenated shape)."""
-    view = shape[:sum(counts) * SHAPE_TEXELS].reshape(-1, SHAPE_TEXELS, 4)
-    start = 0
-    for slot, n in enumerate(counts):
-        view[start:start + n, 1, 3] = slot
-        start += n
+def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: float,
+                sh_degree: int, mode: int, sh_only: bool, color_matrix: np.ndarray,
+                ortho: bool, first: int) -> np.ndarray:
+    """(OBJECT_TEXELS, 4) float32 for one object (layout in viewport_preprocess_frag.glsl).
+    first: the object's first splat in the concatenated data (exact in float to 2^24)."""
+    m = np.asarray(local_to_camera, np.float64)
+    eye, forward = camera_in_object(m)
+    eye_hi = eye.astype(np.float32)
+    eye_lo = (eye - eye_hi.astype(np.float64)).astype(np.float32)
+    rows = np.zeros((OBJECT_TEXELS, 4), np.float32)
+    rows[0:3, :3] = m[:3, :3].T  # columns of cam_from_local
+    rows[0, 3], rows[1, 3], rows[2, 3] = splat_scale, opacity_scale, sh_degree
+    rows[3, :3], rows[3, 3] = eye_hi, mode
+    rows[4, :3], rows[4, 3] = eye_lo, float(sh_only)
+    rows[5:8] = np.asarray(color_matrix, np.float32).reshape(3, 4)
+    rows[8, :3] = forward if ortho else 0.0
+    rows[8, 3] = first
+    return rows
+
+
+def view_constants(projection: np.ndarray, width: int, height: int, *, antialiased=False,
+                   capped_extent=False, linear_output=False, point_size=2.0) -> dict:
+    """Push constants from an OpenGL projection matrix and the viewport size in pixels."""
+    p = np.asarray(projection, np.float64)
+    cam: Camera = camera_from_projection(p, width, height)
+    lo_x, hi_x, lo_y, hi_y = j_clamp_bounds(cam)
+    return {
+        "focal_centre": (cam.fx, cam.fy, cam.cx, cam.cy),
+        "jac_bounds": (lo_x, lo_y, hi_x, hi_y),
+        "frame": (float(width), float(height), cam.near, cam.far),
+        "proj_z": (p[2, 2], p[2, 3], p[3, 2], p[3, 3]),
+        "misc": (float(point_size), 0.0, 0.0, 0.0),
+        "flags": (int(cam.ortho), int(antialiased), int(capped_extent), int(linear_output)),
+    }

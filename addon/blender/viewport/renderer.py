@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .sorting import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
+from ...core.view_order import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
 MODES = {"GAUSSIAN": 0, "POINTS": 1, "OPAQUE": 2}
@@ -124,7 +124,8 @@ class ViewportRenderer:
 
     # -- data ---------------------------------------------------------------
     def _texture(self, name, items, per_splat, sources, build, extra=()):
-        """Upload texture `name` if any object's sources changed; returns seconds spent."""
+        """Upload texture `name` if any object's sources changed; returns seconds spent.
+        per_splat: values per splat of the stream (4 for the one-texel-a-splat pos)."""
         start = time.perf_counter()
         got = [self.packs.get(name, i, src, lambda i=i: build(i), extra) for i, src in zip(items, sources)]
         token = tuple(ident for ident, _ in got)
@@ -132,28 +133,37 @@ class ViewportRenderer:
             return 0.0
         counts = [i.splats.count for i in items]
         flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
-        if name == "shape" and len(got) > 1:
-            packing.set_slots(flat, counts)
         self.gpu.set_texture(name, flat)
         self.state.tokens[name] = token
         self.stats.uploads += 1
         return time.perf_counter() - start
 
+    def _valid(self, item, degree) -> np.ndarray:
+        """packing.drawable, cached apart from the opacities an effect changes each frame."""
+        s = item.splats
+        return self.packs.get("valid", item, (s.rotations, s.scales, s.sh_dc, s.sh_rest),
+                              lambda: packing.drawable(s, degree), extra=(degree,))[1]
+
     def _update_data(self, items, displays) -> list:
         """Upload changed data textures; returns each item's positions (3, N) for sorting."""
         degrees = [max(0, min(i.sh_degree, d.max_sh_degree, i.splats.sh_degree))
                    for i, d in zip(items, displays)]
-        stride = max(packing.sh_texels(g) for g in degrees)
-        seconds = self._texture("pos", items, 1, [(i.splats.positions, i.splats.opacities) for i in items],
-                                lambda i: packing.pack_pos(i.splats))
-        seconds += self._texture("shape", items, packing.SHAPE_TEXELS,
+        values = max(packing.sh_values(g) for g in degrees)
+        by_item = dict(zip(map(id, items), degrees))
+        start = time.perf_counter()
+        valid = [self._valid(i, g) for i, g in zip(items, degrees)]
+        by_valid = dict(zip(map(id, items), valid))
+        seconds = time.perf_counter() - start
+        seconds += self._texture("pos", items, 4,
+                                 [(i.splats.positions, i.splats.opacities, v) for i, v in zip(items, valid)],
+                                 lambda i: packing.pack_pos(i.splats, by_valid[id(i)]))
+        seconds += self._texture("shape", items, packing.SHAPE_VALUES,
                                  [(i.splats.rotations, i.splats.scales, i.splats.sh_dc) for i in items],
                                  lambda i: packing.pack_shape(i.splats))
-        by_item = dict(zip(map(id, items), degrees))
-        seconds += self._texture("sh", items, stride, [(i.splats.sh_rest,) for i in items],
-                                 lambda i: packing.pack_sh(i.splats, by_item[id(i)], stride),
-                                 extra=(tuple(degrees), stride))
-        self.gpu.sh_stride = stride
+        seconds += self._texture("sh", items, values, [(i.splats.sh_rest,) for i in items],
+                                 lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
+                                 extra=(tuple(degrees), values))
+        self.gpu.sh_values = values
         start, built = time.perf_counter(), self.packs.built
         # Filed under positions_key: a colour, opacity or scale effect changes item.key
         # every frame but not the centres, and must not cost a re-sort.
@@ -247,7 +257,7 @@ class ViewportRenderer:
 
         Returns the draw's push constants, or None when there is nothing to draw.
         """
-        from .gpu_draw import SplatGPU, view_constants
+        from .gpu_draw import SplatGPU
 
         self.stats.frame_sort = self.stats.frame_upload = 0.0
         keep = [k for k, i in enumerate(items) if i.splats.count]
@@ -259,7 +269,7 @@ class ViewportRenderer:
         if self.gpu is None:
             self.gpu = SplatGPU()
         width, height = int(viewport_size[0]), int(viewport_size[1])
-        const = view_constants(projection_matrix, width, height, antialiased=settings.antialiased,
+        const = packing.view_constants(projection_matrix, width, height, antialiased=settings.antialiased,
                                capped_extent=settings.capped_extent,
                                linear_output=settings.linear_output, point_size=settings.point_size)
         view = np.asarray(view_matrix, np.float64)
@@ -272,18 +282,17 @@ class ViewportRenderer:
         return const
 
     def _update_objects(self, items, displays, l2c, ortho) -> None:
-        from .gpu_draw import object_rows
-
-        rows = []
+        rows, first = [], 0
         for item, d, m in zip(items, displays, l2c):
             degree = max(0, min(item.effective_sh_degree, d.max_sh_degree))
-            rows.append(object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale, degree,
-                                    MODES[d.mode], d.sh_only, item.color_matrix, ortho))
+            rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale, degree,
+                                            MODES[d.mode], d.sh_only, item.color_matrix, ortho, first))
+            first += item.splats.count
         table = np.concatenate(rows)
         if self.state.objects_token is not None and np.array_equal(self.state.objects_token, table):
             return  # still camera, same transforms: nothing to upload
         start = time.perf_counter()
-        self.gpu.set_objects(table)
+        self.gpu.set_objects(table, len(rows))
         self.stats.frame_upload += time.perf_counter() - start
         self.state.objects_token = table
         self.stats.table_uploads += 1

@@ -1,6 +1,7 @@
-"""View-dependent work on the CPU: frustum culling and the global back-to-front order.
+"""The viewport's view-dependent CPU work: frustum culling and the global back-to-front
+order of several objects' splats, and the worker thread that computes it off the drawing
+thread. Pure (numpy, threading); blender/viewport/renderer.py drives it.
 
-No bpy, no gpu: the draw thread and the sort worker thread both call `visible_order`.
 All objects are sorted together, so overlapping objects interleave correctly.
 """
 from __future__ import annotations
@@ -11,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.sort import far_to_near
+from .sort import far_to_near
 
 
 @dataclass

@@ -10,6 +10,9 @@ gpu module into an RGBA32F GPUOffScreen) on the real captures with their real tr
   centre, opaque, in its own colour (the nearest dot wins).
 - SH only: the view-dependent bands over grey, the DC term removed: the colour is
   0.5 + sum of the higher bands, which core.project gives for the same splats with DC = 0.
+The predictions start from the splats as the viewport stores them (half-float scales, DC,
+higher SH and smallest-three quaternion: viewport/packing.py), so the comparison stays at
+float32 precision and tests what each mode shows, not the storage's rounding.
 Pixels whose prediction sits within the float32 error of a decision (an ellipse or square
 edge, two splats at nearly the same depth) are left out of the exact comparison; they
 are few, and counted.
@@ -47,6 +50,22 @@ def capture(request, testdata):
         s = s.subset(np.arange(0, s.count, 200))
     item = RenderItem(s, world=world_for(s), key=(request.param, 0))
     return item, framing_camera(item, W, H, distance=1.1)
+
+
+def _as_stored(item):
+    """The item with its splats rounded as the viewport's textures hold them."""
+    from addon.blender.viewport.packing import halves, smallest_three
+
+    s = item.splats
+    three, largest = smallest_three(s.rotations)
+    three = halves(three).astype(np.float64)
+    q = np.empty((s.count, 4))
+    others = np.array([[j for j in range(4) if j != i] for i in range(4)])
+    q[np.arange(s.count)[:, None], others[largest]] = three
+    q[np.arange(s.count), largest] = np.sqrt(np.clip(1.0 - (three ** 2).sum(1), 0.0, None))
+    stored = replace(s, rotations=q.astype(np.float32), scales=halves(s.scales),
+                     sh_dc=halves(s.sh_dc), sh_rest=halves(s.sh_rest))
+    return replace(item, splats=stored)
 
 
 def _display(**kw):
@@ -88,7 +107,7 @@ def _check(img, front, unsure, rgb):
 
 
 def _opaque_prediction(item, camera):
-    p = project(item, camera)
+    p = project(_as_stored(item), camera)
     x, y = _pixels()
     dx = x[:, None] - p.means2d[None, :, 0]
     dy = y[:, None] - p.means2d[None, :, 1]
@@ -116,7 +135,7 @@ def test_points_are_dots_of_the_point_size_at_the_centres(gpu_ready, capture, si
 
     item, camera = capture
     img, _ = draw_offscreen([item], camera, [_display(mode="POINTS")], DrawSettings(point_size=size))
-    p = project(item, camera)
+    p = project(_as_stored(item), camera)
     x, y = _pixels()
     dx = np.abs(x[:, None] - p.means2d[None, :, 0])
     dy = np.abs(y[:, None] - p.means2d[None, :, 1])
@@ -139,7 +158,8 @@ def test_sh_only_is_the_higher_bands_over_grey(gpu_ready, capture):
     item, camera = capture
     img, _ = draw_offscreen([item], camera, [_display(mode="OPAQUE", sh_only=True)])
     p, cover, ambiguous = _opaque_prediction(item, camera)
-    no_dc = replace(item, splats=replace(item.splats, sh_dc=np.zeros_like(item.splats.sh_dc)))
+    stored = _as_stored(item)
+    no_dc = replace(stored, splats=replace(stored.splats, sh_dc=np.zeros_like(stored.splats.sh_dc)))
     want = project(no_dc, camera).rgb
     front, unsure = _front(cover, ambiguous, p.depth)
     _check(img, front, unsure, want)

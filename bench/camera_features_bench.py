@@ -251,8 +251,13 @@ def print_row(label: str, fig: dict, base_ms: float) -> None:
     print(f"{label:32s} {fig['ms']:10.0f} {fig['ms'] / base_ms:6.2f}x {ps:>8s} {fig['max']:9.2e}", flush=True)
     extra = {k: v for k, v in fig.items() if k not in ("ms", "psnr", "max")}
     if extra:
-        print("    " + ", ".join(f"{k} {v:.1f}" if isinstance(v, float) else f"{k} {v}"
-                                 for k, v in extra.items()), flush=True)
+        print("    " + ", ".join(f"{k} {_figure(k, v)}" for k, v in extra.items()), flush=True)
+
+
+def _figure(name: str, value) -> str:
+    if not isinstance(value, float):
+        return str(value)
+    return f"{value:.2e}" if "max" in name else f"{value:.1f}"
 
 
 def main(argv=None) -> None:

@@ -1,6 +1,9 @@
 // Offscreen renderer, stage "preprocess": one invocation per splat of one object part.
 // Projects the splat camera-relative and writes its screen record and view depth at
 // u_base + i in the frame-wide arrays (so several objects share one global sort).
+// Equirect cameras: depth is the distance, and each splat owns two more slots,
+// u_base + i + u_copy_stride (drawn one longitude period to the right) and
+// u_base + i + 2 u_copy_stride (one to the left), used where its quad crosses the seam.
 // Needs: splat_math.glsl before this file; #version 430 from the loader.
 layout(local_size_x = 256) in;
 
@@ -34,6 +37,11 @@ uniform mat3 u_color_linear;
 uniform vec3 u_color_offset;
 uniform bool u_antialiased;
 uniform bool u_capped_extent;   // quads cut at 3 sigma (speed), else the 1/255 contour
+uniform bool u_equirect;
+uniform float u_lat_limit;       // equirect: latitude clamp of J (radians)
+uniform float u_period;          // equirect: pixels per full turn of longitude
+uniform uint u_copy_stride;      // equirect: splats in the frame (slot stride of the copies); else 0
+uniform vec2 u_lens;             // depth of field: aperture radius, 1 / focus distance; (0, 0) = off
 
 // float bits -> uint with the same order (negative floats too), for atomicMin/Max
 uint ordered_bits(float f)
@@ -55,10 +63,39 @@ vec3 sh_colour(uint i, vec3 dir)
     return sl_sh_color(dir, u_sh_degree, dc, rest);
 }
 
-void cull(uint g)
+void cull_slot(uint g)
 {
     rec1[g] = vec4(0.0);
     depth_key_src[g] = uintBitsToFloat(0x7f800000u);  // +inf
+}
+
+void cull(uint g)
+{
+    cull_slot(g);
+    if (u_copy_stride != 0u) {
+        cull_slot(g + u_copy_stride);
+        cull_slot(g + 2u * u_copy_stride);
+    }
+}
+
+bool on_frame(vec2 centre, float radius)
+{
+    return !(any(lessThan(centre + radius, vec2(0.0))) || any(greaterThan(centre - radius, u_frame)));
+}
+
+// One record, or a culled slot where this position of the splat misses the frame.
+void emit(uint g, vec2 centre, vec3 conic, float radius, float depth, float opacity, vec3 rgb,
+          float sort_depth)
+{
+    if (!on_frame(centre, radius)) { cull_slot(g); return; }
+    rec0[g] = vec4(centre, conic.xy);
+    rec1[g] = vec4(conic.z, radius, depth, opacity);
+    rec2[g] = vec4(rgb, 0.0);
+    depth_key_src[g] = sort_depth;
+    uint bits = ordered_bits(sort_depth);
+    atomicMin(range_bits[0], bits);
+    atomicMax(range_bits[1], bits);
+    atomicAdd(range_bits[2], 1u);
 }
 
 void main()
@@ -75,11 +112,14 @@ void main()
     // camera-relative: p - eye exactly in float32 for nearby points (eye split hi + lo)
     vec3 rel = (p.xyz - u_eye_hi) - u_eye_lo;
     vec3 t = u_cam_from_local * rel;
-    float depth = -t.z;
+    float depth = u_equirect ? length(t) : -t.z;
     if (!(depth > u_near_far.x) || depth > u_near_far.y) { cull(g); return; }
 
     mat3 axes = sl_axes_camera(u_cam_from_local, q, s.xyz * u_splat_scale);
-    vec4 cov = sl_cov2d(axes, sl_jacobian(t, u_focal_centre.xy, u_jac_bounds, u_ortho));
+    mat3x2 jac = u_equirect ? sl_equirect_jacobian(t, u_focal_centre.xy, u_lat_limit)
+                            : sl_jacobian(t, u_focal_centre.xy, u_jac_bounds, u_ortho);
+    vec4 cov = sl_cov2d(axes, jac);
+    if (u_lens.x > 0.0) sl_defocus(cov, depth, u_focal_centre.xy, u_lens, u_antialiased, opacity);
     vec3 conic;
     float lambda_max;
     if (!sl_conic(cov, u_antialiased, opacity, conic, lambda_max) || !(opacity >= SL_ALPHA_MIN)) {
@@ -87,25 +127,26 @@ void main()
         return;
     }
     float radius = sl_quad_radius(lambda_max, opacity, u_capped_extent);
-    vec2 centre = sl_project_point(t, u_focal_centre, u_ortho);
+    vec2 centre = u_equirect ? sl_equirect_point(t, u_focal_centre)
+                             : sl_project_point(t, u_focal_centre, u_ortho);
+    vec2 turn = vec2(u_period, 0.0);
     // off-frame quads are culled here so they do not widen the depth-key range
-    bool off = any(lessThan(centre + radius, vec2(0.0))) || any(greaterThan(centre - radius, u_frame));
-    if (off || !sl_is_finite(radius) || !sl_is_finite(centre.x) || !sl_is_finite(centre.y)) {
+    bool on = on_frame(centre, radius) || (u_copy_stride != 0u
+        && (on_frame(centre + turn, radius) || on_frame(centre - turn, radius)));
+    if (!on || !sl_is_finite(radius) || !sl_is_finite(centre.x) || !sl_is_finite(centre.y)) {
         cull(g);
         return;
     }
     vec3 dir = u_ortho ? u_ortho_dir : rel / length(rel);
     vec3 rgb = sl_grade_color(sh_colour(i, dir), u_color_linear, u_color_offset);
     if (!sl_is_finite3(rgb)) { cull(g); return; }
-    rec0[g] = vec4(centre, conic.xy);
-    rec1[g] = vec4(conic.z, radius, depth, opacity);
-    rec2[g] = vec4(rgb, 0.0);
     // Sort on depth minus a per-frame anchor (offset summed in float64 on the CPU): a small
     // object far from the camera keeps its depth differences, which depth itself rounds away.
-    float sort_depth = dot(u_depth_axis, p.xyz) + u_sort_offset;
-    depth_key_src[g] = sort_depth;
-    uint bits = ordered_bits(sort_depth);
-    atomicMin(range_bits[0], bits);
-    atomicMax(range_bits[1], bits);
-    atomicAdd(range_bits[2], 1u);
+    // Equirect: the distance itself (no view axis to take a linear depth along).
+    float sort_depth = u_equirect ? depth : dot(u_depth_axis, p.xyz) + u_sort_offset;
+    emit(g, centre, conic, radius, depth, opacity, rgb, sort_depth);
+    if (u_copy_stride != 0u) {
+        emit(g + u_copy_stride, centre + turn, conic, radius, depth, opacity, rgb, sort_depth);
+        emit(g + 2u * u_copy_stride, centre - turn, conic, radius, depth, opacity, rgb, sort_depth);
+    }
 }

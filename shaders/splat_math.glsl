@@ -108,6 +108,44 @@ mat3x2 sl_jacobian(vec3 t, vec2 focal, vec2 tan_half_fov, bool ortho)
     return sl_jacobian(t, focal, vec4(-lim, lim), ortho);
 }
 
+// Equirectangular panorama (twin of core/equirect.py): longitude atan2(x, -z), latitude
+// atan2(y, hypot(x, z)); u = cx + fx * longitude, v = cy - fy * latitude.
+vec2 sl_equirect_point(vec3 t, vec4 focal_centre)
+{
+    float lon = atan(t.x, -t.z), lat = atan(t.y, length(t.xz));
+    return vec2(focal_centre.z + focal_centre.x * lon, focal_centre.w - focal_centre.y * lat);
+}
+
+// d(u, v)/d(x, y, z) of the equirect map at the centre's longitude, with its latitude
+// clamped to +-lat_limit (90 deg minus half a pixel row): finite through the poles.
+mat3x2 sl_equirect_jacobian(vec3 t, vec2 focal, float lat_limit)
+{
+    float lon = atan(t.x, -t.z);
+    float lat = clamp(atan(t.y, length(t.xz)), -lat_limit, lat_limit);
+    float r = length(t), cl = cos(lon), sl = sin(lon), cp = cos(lat), sp = sin(lat);
+    return mat3x2(
+        vec2(focal.x * cl / (r * cp), focal.y * sp * sl / r),
+        vec2(0.0, -focal.y * cp / r),
+        vec2(focal.x * sl / (r * cp), -focal.y * sp * cl / r));
+}
+
+// Depth of field (twin of core/dof.py widen): adds the circle of confusion's variance
+// (f R (1/depth - 1/F))^2 / 4 per axis to sl_cov2d's result (before the low-pass) and
+// scales opacity to keep the splat's integral. lens = (R, 1/F); R = 0: no DOF.
+void sl_defocus(inout vec4 cov, float depth, vec2 focal, vec2 lens, bool antialiased,
+                inout float opacity)
+{
+    float k = lens.x * (1.0 / depth - lens.y);
+    vec2 v = 0.25 * (focal * k) * (focal * k);
+    if (!(v.x > 0.0 || v.y > 0.0)) return;  // in focus: exactly as without DOF
+    float a = cov.x + v.x, c = cov.z + v.y;
+    float det = cov.w + v.x * cov.z + v.y * cov.x + v.x * v.y;
+    float before = cov.w + SL_LOWPASS * (cov.x + cov.z) + SL_LOWPASS * SL_LOWPASS;
+    float after = det + SL_LOWPASS * (a + c) + SL_LOWPASS * SL_LOWPASS;
+    opacity *= antialiased ? sqrt(cov.w / det) : sqrt(before / after);
+    cov = vec4(a, cov.y, c, det);
+}
+
 // 2D covariance (a, b, c) = [[a, b], [b, c]] before the low-pass, and its determinant in w.
 // Built from the projected axes m_k = J * axis_k: Sigma' = sum m_k m_k^T, and
 // det by Cauchy-Binet (sum of squared 2x2 minors), which never cancels for needles/discs.

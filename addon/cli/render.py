@@ -63,7 +63,8 @@ def configure(parser):
     parser.add_argument("--resolution", metavar="WxH", help="output size in pixels (percentage set to 100)")
     parser.add_argument("--engine-option", action="append", default=[], metavar="NAME=VALUE",
                         help="a Splatline render setting, e.g. key_bits=16, gpu_sort=off, "
-                             "antialiased=on, renderer=REFERENCE|GPU_MODULE|OFFSCREEN|AUTO (repeatable)")
+                             "antialiased=on, renderer=REFERENCE|GPU_MODULE|OFFSCREEN|AUTO, "
+                             "motion_blur_samples=8 (with the .blend's motion blur on) (repeatable)")
     parser.add_argument("--keep-stamp", action="store_true",
                         help="keep the render date, time, frame and host in the files' metadata (not reproducible)")
 

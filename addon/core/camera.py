@@ -7,12 +7,17 @@ top-down, shape (height, width, channels).
 
 Perspective:  u = cx + fx * x / -z,   v = cy - fy * y / -z
 Orthographic: u = cx + fx * x,        v = cy - fy * y
+Equirect:     u = cx + fx * lambda,   v = cy - fy * phi   (longitude, latitude; equirect.py)
+A perspective camera may carry depth of field (`defocus`, dof.py).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+from . import equirect as _equirect
+from .dof import Defocus
 
 
 @dataclass(frozen=True)
@@ -27,6 +32,19 @@ class Camera:
     near: float
     far: float
     ortho: bool = False
+    equirect: bool = False           # Blender's panoramic equirectangular camera
+    defocus: Defocus | None = None   # depth of field (perspective only)
+
+    def __post_init__(self):
+        if self.defocus is not None and (self.ortho or self.equirect):
+            raise ValueError("depth of field is modelled for perspective cameras only")
+        if self.ortho and self.equirect:
+            raise ValueError("a camera is orthographic or equirectangular, not both")
+
+    @property
+    def kind(self) -> str:
+        """"perspective", "ortho" or "equirect"."""
+        return "equirect" if self.equirect else "ortho" if self.ortho else "perspective"
 
     @property
     def camera_to_world(self) -> np.ndarray:
@@ -43,10 +61,14 @@ class Camera:
         return self.width / (2.0 * self.fx), self.height / (2.0 * self.fy)
 
     def project(self, points_world: np.ndarray) -> np.ndarray:
-        """(N, 3) world points -> (N, 3) pixel u, v and camera-space depth (-z), float64."""
+        """(N, 3) world points -> (N, 3) pixel u, v and depth, float64: camera-space
+        depth (-z), or for an equirect camera the distance."""
         p = np.asarray(points_world, np.float64)
         cam = p @ self.world_to_camera[:3, :3].T + self.world_to_camera[:3, 3]
         depth = -cam[:, 2]
+        if self.equirect:
+            uv = _equirect.project_points(cam, self)
+            return np.column_stack([uv, np.linalg.norm(cam, axis=1)])
         if self.ortho:
             u = self.cx + self.fx * cam[:, 0]
             v = self.cy - self.fy * cam[:, 1]
@@ -137,3 +159,16 @@ def rigid_inverse(camera_to_world) -> np.ndarray:
     m = np.array(camera_to_world, np.float64)
     m[:3, :3] /= np.linalg.norm(m[:3, :3], axis=0)
     return np.linalg.inv(m)
+
+
+def equirect_camera(world_to_camera, width: int, height: int, *,
+                    lon_min: float = -np.pi, lon_max: float = np.pi,
+                    lat_min: float = -np.pi / 2, lat_max: float = np.pi / 2,
+                    near: float = 0.1, far: float = 1000.0) -> Camera:
+    """A panoramic equirectangular camera over the given longitude/latitude window
+    (radians; Blender's defaults: the whole sphere)."""
+    if width < 1 or height < 1:
+        raise ValueError(f"render size {width}x{height} is empty")
+    fx, fy, cx, cy = _equirect.frame_params(width, height, lon_min, lon_max, lat_min, lat_max)
+    return Camera(np.asarray(world_to_camera, np.float64), int(width), int(height), fx, fy,
+                  cx, cy, float(near), float(far), equirect=True)

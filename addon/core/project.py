@@ -22,6 +22,10 @@ Conventions and the choices the renderers must agree on:
   `radius` = extent * sqrt(lambda_max) in pixels (not rounded) is the half-size
   of the screen-aligned square quad the splat covers.
 - Zero quaternions are culled, like NaN ones (not treated as the identity).
+- Equirect cameras (equirect.py): J and the centre from the longitude/latitude map,
+  depth = distance to the camera; the seam copies are the renderer's (seam_shifts).
+- Depth of field (dof.py): the 2D covariance, before the low-pass, gains the circle of
+  confusion's variance, and opacity the factor that keeps the splat's integral.
 """
 from __future__ import annotations
 
@@ -29,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import dof, equirect
 from .camera import Camera
 from .scene import RenderItem
 from .sh import sh_to_rgb
@@ -119,6 +124,8 @@ def j_clamp_bounds(camera: Camera) -> tuple[float, float, float, float]:
 def _jacobian(t: np.ndarray, camera: Camera) -> np.ndarray:
     """(N, 2, 3) d(u, v)/d(x', y', z') at camera-space centres t (INRIA axes)."""
     n = t.shape[0]
+    if camera.equirect:  # d(u, v)/d(Blender axes), chained through t_blender = FLIP t
+        return equirect.jacobian(t * _FLIP.diagonal(), camera) * _FLIP.diagonal()
     j = np.zeros((n, 2, 3))
     if camera.ortho:
         j[:, 0, 0], j[:, 1, 1] = camera.fx, camera.fy
@@ -169,26 +176,25 @@ def project(item: RenderItem, camera: Camera, antialiased: bool = False,
         lin = _FLIP @ o2c[:3, :3]
         pos = sp.positions.astype(np.float64)
         t = pos @ lin.T + _FLIP @ o2c[:3, 3]
-        depth = t[:, 2]
+        depth = np.linalg.norm(t, axis=1) if camera.equirect else t[:, 2]
         rot, q_ok = quat_to_matrix(sp.rotations)
         g = np.matmul(_jacobian(t, camera) @ lin, rot)
         s = sp.scales.astype(np.float64) * float(item.splat_scale)
         a0, b, c0, det0 = _covariance_2d(g, s)
+        opacity = sp.opacities.astype(np.float64) * float(item.opacity_scale)
+        if camera.defocus is not None:
+            a0, c0, det0, keep = dof.widen(a0, c0, det0, depth, camera, antialiased, LOW_PASS)
+            opacity = opacity * keep
         a, c = a0 + LOW_PASS, c0 + LOW_PASS
         det = det0 + LOW_PASS * (a0 + c0) + LOW_PASS * LOW_PASS
         conic = np.stack([c, -b, a], axis=1) / det[:, None]
-        opacity = sp.opacities.astype(np.float64) * float(item.opacity_scale)
         if antialiased:
             opacity = opacity * np.sqrt(np.maximum(det0 / det, 0.0))
         extent = extent_sigmas(opacity, capped_extent)
         # lambda_max = mid + sqrt(max(0.1, mid^2 - det)); mid^2 - det written without cancellation
         lam = 0.5 * (a + c) + np.sqrt(np.maximum(0.1, 0.25 * (a - c) ** 2 + b * b))
         radius = extent * np.sqrt(lam)
-        if camera.ortho:
-            means = np.stack([camera.cx + camera.fx * t[:, 0], camera.cy + camera.fy * t[:, 1]], 1)
-        else:
-            means = np.stack([camera.cx + camera.fx * t[:, 0] / depth,
-                              camera.cy + camera.fy * t[:, 1] / depth], 1)
+        means = _centres(t, depth, camera)
         rgb = _colours(item, camera, pos)
     valid = (q_ok & (depth > camera.near) & (depth <= camera.far) & (det > 0)
              & (opacity >= ALPHA_MIN) & np.isfinite(radius) & np.isfinite(det)
@@ -196,6 +202,16 @@ def project(item: RenderItem, camera: Camera, antialiased: bool = False,
              & np.isfinite(rgb).all(1) & np.isfinite(opacity))
     return Projected(means, np.stack([a, b, c], 1), conic, opacity, rgb, depth, extent,
                      radius, valid)
+
+
+def _centres(t: np.ndarray, depth: np.ndarray, camera: Camera) -> np.ndarray:
+    """(N, 2) pixel centres of camera-space points t (INRIA axes)."""
+    if camera.equirect:
+        return equirect.project_points(t * _FLIP.diagonal(), camera)
+    if camera.ortho:
+        return np.stack([camera.cx + camera.fx * t[:, 0], camera.cy + camera.fy * t[:, 1]], 1)
+    return np.stack([camera.cx + camera.fx * t[:, 0] / depth,
+                     camera.cy + camera.fy * t[:, 1] / depth], 1)
 
 
 def _colours(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> np.ndarray:

@@ -21,6 +21,8 @@ other renderer (semantics in ../../../shared/DESIGN.md, projection in project.py
   front to back is what makes INRIA's early termination expressible: with
   options.early_termination, the splat that would take T below 1e-4 is not
   blended and the pixel stops there.
+- Equirect cameras: a splat whose quad reaches past the left or right edge is also
+  drawn one longitude period over (equirect.seam_shifts), so it shows across the seam.
 - The background (premultiplied) goes behind everything: C + T bg.
 - Work is per splat over the pixels of its bounding box, tile by tile, so a
   few small splats on an 8192 x 8192 frame cost little beyond the output.
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import equirect
 from .camera import Camera
 from .project import ALPHA_MIN, project
 from .scene import RenderItem, RenderOptions, RenderOutput
@@ -76,6 +79,8 @@ def _gather(items, camera, options) -> dict:
         parts = {f: [np.zeros((0, 2) if f == "means2d" else (0, 3) if f in ("conic", "rgb")
                               else (0,))] for f in fields}
     s = {f: np.concatenate(v) for f, v in parts.items()}
+    if camera.equirect:
+        s = _with_seam_copies(s, camera)
     front_to_back = np.argsort(s["depth"], kind="stable")  # ties: lower index first
     s = {f: v[front_to_back] for f, v in s.items()}
     u, v, r = s["means2d"][:, 0], s["means2d"][:, 1], s["radius"]
@@ -88,6 +93,17 @@ def _gather(items, camera, options) -> dict:
     s = {f: v[keep] for f, v in s.items()}
     s["box"] = box[keep]
     return s
+
+
+def _with_seam_copies(s: dict, camera) -> dict:
+    """Append the seam copies (after every original, so a copy never wins a depth tie
+    against another splat's original)."""
+    parts = {f: [v] for f, v in s.items()}
+    for idx, shift in equirect.seam_shifts(s["means2d"][:, 0], s["radius"], camera):
+        for f, v in s.items():
+            parts[f].append(v[idx])
+        parts["means2d"][-1] = parts["means2d"][-1] + (shift, 0.0)
+    return {f: np.concatenate(v) for f, v in parts.items()}
 
 
 def _render_tile(s: dict, x0: int, y0: int, x1: int, y1: int, early_termination: bool):

@@ -5,11 +5,13 @@ The projection is core/project.py's (float64, camera-relative), the order is
 core.sort.back_to_front with the same quantised keys, and the records go to the GPU in
 back-to-front order as RGBA32F textures (shaders/gl_records_texture.glsl) for the same
 draw and depth-pass shaders. Records depend on the camera, so they are sent every frame.
+Equirect cameras: the seam copies are appended as extra records, as the reference does.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ..core.equirect import seam_shifts
 from ..core.project import project
 from ..core.sort import back_to_front
 from .shaders import RECORD_WIDTH
@@ -19,23 +21,38 @@ RECORD_UNITS = (4, 5, 6)  # texture units of u_rec0..2 (0..2 belong to the depth
 
 def cpu_records(items, camera, options) -> tuple[np.ndarray, int]:
     """(3, V, 4) float32 records of the visible splats, back to front, and V."""
-    recs, depths = [], []
-    for item in items:
-        p = project(item, camera, options.antialiased, options.capped_extent)
-        u, v, r = p.means2d[:, 0], p.means2d[:, 1], p.radius
-        with np.errstate(invalid="ignore"):
-            on = p.valid & (u + r >= 0) & (u - r <= camera.width) & (v + r >= 0) & (v - r <= camera.height)
-        rec = np.zeros((3, item.splats.count, 4))
-        rec[0] = np.stack([u, v, p.conic[:, 0], p.conic[:, 1]], 1)
-        rec[1] = np.stack([p.conic[:, 2], r, p.depth, p.opacity], 1)
-        rec[2, :, :3] = p.rgb
-        recs.append(rec)
-        depths.append(np.where(on, p.depth, np.inf))
+    recs = [_item_records(item, camera, options) for item in items]
     if not recs:
         return np.zeros((3, 0, 4), np.float32), 0
-    depth = np.concatenate(depths)
+    rec = np.concatenate(recs, axis=1)
+    if camera.equirect:
+        rec = _with_seam_copies(rec, camera)
+    u, v, r = rec[0, :, 0], rec[0, :, 1], rec[1, :, 1]
+    with np.errstate(invalid="ignore"):
+        on = (u + r >= 0) & (u - r <= camera.width) & (v + r >= 0) & (v - r <= camera.height)
+    depth = np.where(on, rec[1, :, 2], np.inf)
     order = back_to_front(depth, options.key_bits, np.isfinite(depth))
-    return np.concatenate(recs, axis=1)[:, order].astype(np.float32), int(order.size)
+    return rec[:, order].astype(np.float32), int(order.size)
+
+
+def _item_records(item, camera, options) -> np.ndarray:
+    """(3, N, 4) float64 records of one item; culled splats have depth +inf."""
+    p = project(item, camera, options.antialiased, options.capped_extent)
+    rec = np.zeros((3, item.splats.count, 4))
+    rec[0] = np.stack([p.means2d[:, 0], p.means2d[:, 1], p.conic[:, 0], p.conic[:, 1]], 1)
+    rec[1] = np.stack([p.conic[:, 2], p.radius, np.where(p.valid, p.depth, np.inf), p.opacity], 1)
+    rec[2, :, :3] = p.rgb
+    return rec
+
+
+def _with_seam_copies(rec: np.ndarray, camera) -> np.ndarray:
+    """The records plus each seam copy (after all originals), shifted by a period."""
+    parts = [rec]
+    for idx, shift in seam_shifts(rec[0, :, 0], rec[1, :, 1], camera):
+        copy = rec[:, idx].copy()
+        copy[0, :, 0] += shift
+        parts.append(copy)
+    return np.concatenate(parts, axis=1)
 
 
 class RecordTextures:

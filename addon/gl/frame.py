@@ -13,7 +13,7 @@ from . import shaders
 from .depthpass import DepthPass
 from .fallback import RecordTextures, cpu_records
 from .sorting import RadixSorter, cpu_order
-from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform
+from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform, slots_per_splat
 from .upload import UploadCache
 
 MAX_TILE = 4096  # larger frames are drawn tile by tile (bounded GPU memory)
@@ -82,6 +82,8 @@ class FrameState:
             set_uniform(cs, name, value)
         set_uniform(cs, "u_antialiased", bool(options.antialiased))
         set_uniform(cs, "u_capped_extent", bool(options.capped_extent))
+        copies = slots_per_splat(camera) > 1
+        set_uniform(cs, "u_copy_stride", sum(obj.count for obj in objects) if copies else 0)
         base = 0
         anchor = depth_origin(items[0], camera) if items else 0.0
         for item, obj in zip(items, objects):
@@ -140,7 +142,7 @@ class FrameState:
         self.cache.begin_frame()
         objects = [self.cache.get(item) for item in items]
         self.cache.retain({item.key for item in items if item.key is not None})
-        n = sum(obj.count for obj in objects)
+        n = sum(obj.count for obj in objects) * slots_per_splat(camera)  # record slots
         self._ensure(max(n, 1))
         visible = self._preprocess(items, objects, camera, options) if n else 0
         order = self._sort(n, options) if visible else self.arrays["order"]

@@ -12,6 +12,7 @@ import sys
 
 from ..core.camera import Camera
 from ..core.scene import RenderItem, RenderOptions, RenderOutput
+from .uniforms import slots_per_splat
 from .worker import GLWorker
 
 log = logging.getLogger(__name__)
@@ -72,7 +73,8 @@ class OffscreenRenderer:
     def render(self, items: list[RenderItem], camera: Camera,
                options: RenderOptions = RenderOptions()) -> RenderOutput:
         items = list(items)
-        self._last = self._state_for(sum(item.splats.count for item in items))
+        slots = sum(item.splats.count for item in items) * slots_per_splat(camera)
+        self._last = self._state_for(slots)
         return self._worker.call(self._last.render, items, camera, options)
 
     def _state_for(self, count: int):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core import equirect
 from ..core.camera import Camera
 from ..core.project import J_CLAMP_MARGIN
 from ..core.scene import RenderItem
@@ -37,7 +38,23 @@ def camera_uniforms(camera: Camera) -> dict:
         "u_frame": (float(w), float(h)),
         "u_near_far": (float(camera.near), float(camera.far)),
         "u_ortho": bool(camera.ortho),
+        "u_equirect": bool(camera.equirect),
+        "u_lat_limit": 0.5 * np.pi - equirect.pole_margin(fy) if camera.equirect else 0.0,
+        "u_period": equirect.period(camera) if camera.equirect else 0.0,
+        "u_lens": _lens(camera),
     }
+
+
+def _lens(camera: Camera) -> tuple[float, float]:
+    """Depth of field for sl_defocus: (aperture radius, 1 / focus distance); (0, 0) = off."""
+    d = camera.defocus
+    return (0.0, 0.0) if d is None else (float(d.aperture_radius), 1.0 / float(d.focus_distance))
+
+
+def slots_per_splat(camera: Camera) -> int:
+    """Record slots each splat owns in the frame arrays: 3 for an equirect camera (the
+    splat and its seam copies one period to the right and left), else 1."""
+    return 3 if camera.equirect else 1
 
 
 def split_float(x: np.ndarray) -> tuple[tuple, tuple]:

@@ -43,6 +43,11 @@ class RenderSettings(bpy.types.PropertyGroup):
         description="Sort on the GPU with compute shaders where OpenGL 4.3 is available, "
                     "else on the CPU")
 
+    motion_blur_samples: bpy.props.IntProperty(
+        name="Motion Blur Samples", default=8, min=1, soft_max=32, max=256,
+        description="Sub-frame renders averaged per frame when Output > Motion Blur is on "
+                    "(shutter and position are Blender's); each costs one render")
+
     def options(self, background=(0.0, 0.0, 0.0, 0.0)) -> RenderOptions:
         """The core RenderOptions these settings stand for."""
         return RenderOptions(

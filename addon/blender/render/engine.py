@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import threading
 import traceback
+from dataclasses import dataclass
 
 import bpy
 
+from ...core import shutter
 from ...core.errors import SplatFormatError
+from . import motion_blur
 from . import paths as render_paths
 from .camera import camera_from_blender
 from ..compat import world_uses_nodes
@@ -62,6 +65,18 @@ _HOLDER = _RendererHolder()
 _SIGINT = SigintGuard()
 
 
+@dataclass
+class _Frame:
+    """What every view and sub-frame of one frame renders with."""
+
+    depsgraph: object
+    camera_obj: object
+    renderer: object
+    region: object
+    options: object
+    views: list
+
+
 class _Stopped(Exception):
     """Raised between stages when the user asked to stop (Esc, SIGINT)."""
 
@@ -103,6 +118,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         region = render_region(full.width, full.height, r.use_border,
                                (r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y))
         self.update_stats("", "Splatline | gathering splats")
+        times = motion_blur.sub_frame_times(scene, scene.frame_current)
         items = collect_items(depsgraph)
         self._check()
         # One setting for the whole scene, so view layers do not swap renderers mid-job.
@@ -111,8 +127,9 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         if fresh and want_depth and not renderer.has_depth:  # once per job, not per frame
             self.report({"WARNING"}, f"Splatline: {_HOLDER.label} has no depth pass: "
                                      "Depth holds the background value everywhere")
+        blur = f" | motion blur {len(times)} samples" if times else ""
         self.update_stats("", f"Splatline | {_HOLDER.label} | "
-                              f"{sum(i.splats.count for i in items):,} splats")
+                              f"{sum(i.splats.count for i in items):,} splats{blur}")
         result = self.begin_result(0, 0, region.width, region.height,
                                    layer=depsgraph.view_layer.name)
         try:
@@ -120,20 +137,49 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
                 raise ValueError(f"render result is {result.resolution_x}x{result.resolution_y}, "
                                  f"expected the region {region.width}x{region.height}")
             # One view, or each eye of a stereo/multi-view render.
-            for view in [v.name for v in result.views]:
-                self.active_view_set(view)
-                camera = self._view_camera(scene, camera_obj, depsgraph)
-                out = renderer.render(items, region_camera(camera, region), settings.options())
-                self._check()
-                rgba = to_scene_linear(out.rgba)
+            frame = _Frame(depsgraph, camera_obj, renderer, region, settings.options(),
+                           [v.name for v in result.views])
+            films = self._blurred(frame, times) if times else self._films(frame, items)
+            for view, (rgba, depth) in films.items():
                 if not r.film_transparent:  # the evaluated world: its colour may be animated
                     rgba = composite_over(rgba, world_background(depsgraph.scene_eval.world))
-                _write_view(result, view, rgba, blender_depth(out.depth))
+                _write_view(result, view, rgba, depth)
         except BaseException:
             self.end_result(result, cancel=True)
             raise
         self.end_result(result)
         self.update_progress(1.0)
+
+    def _films(self, frame, items) -> dict:
+        """{view: (scene-linear premultiplied RGBA, Blender depth)} of the scene as the
+        depsgraph holds it now."""
+        films = {}
+        for view in frame.views:
+            self.active_view_set(view)
+            camera = self._view_camera(frame.depsgraph.scene, frame.camera_obj, frame.depsgraph)
+            out = frame.renderer.render(items, region_camera(camera, frame.region), frame.options)
+            self._check()
+            films[view] = (to_scene_linear(out.rgba), blender_depth(out.depth))
+        return films
+
+    def _blurred(self, frame, times) -> dict:
+        """Motion blur: the films at each sub-frame time, averaged in scene-linear light
+        (core/shutter.py); depth from the sample nearest the middle of the shutter. The
+        scene is put back on its own frame afterwards, whatever happens."""
+        scene = frame.depsgraph.scene
+        current = scene.frame_current
+        sums = {view: shutter.Average(len(times)) for view in frame.views}
+        depth, middle = {}, shutter.nearest_to_middle(times)
+        try:
+            for k, time in enumerate(times):
+                self.frame_set(*shutter.split_time(time))
+                for view, (rgba, z) in self._films(frame, collect_items(frame.depsgraph)).items():
+                    sums[view].add(rgba)
+                    if k == middle:
+                        depth[view] = z
+        finally:
+            self.frame_set(current, 0.0)
+        return {view: (sums[view].result(), depth[view]) for view in frame.views}
 
     def _view_camera(self, scene, camera_obj, depsgraph):
         """The camera of the active view: Blender offsets it per eye in multi-view renders."""

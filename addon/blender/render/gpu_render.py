@@ -41,6 +41,10 @@ class GpuModuleRenderer:
         self._viewport = ViewportRenderer(worker=False)
 
     def render(self, items, camera, options) -> RenderOutput:
+        if camera.equirect or camera.defocus is not None:
+            raise ValueError("panoramic cameras and depth of field need the moderngl or "
+                             "Reference renderer (the Blender GPU module path draws pinhole "
+                             "cameras only)")
         settings = DrawSettings(sync_sort=True, linear_output=False,
                                 antialiased=options.antialiased,
                                 capped_extent=options.capped_extent)

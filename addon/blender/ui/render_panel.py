@@ -36,6 +36,20 @@ class SPLATLINE_PT_render(bpy.types.Panel):
         sub.active = settings.renderer in {"AUTO", "OFFSCREEN"}
         sub.prop(settings, "gpu_sort")
         layout.prop(context.scene.render, "film_transparent")
+        _draw_motion_blur(layout, context.scene)
+
+
+def _draw_motion_blur(layout, scene) -> None:
+    """Blender's own motion-blur switch and shutter, with Splatline's sample count."""
+    r = scene.render
+    col = layout.column(heading="Motion Blur")
+    col.prop(r, "use_motion_blur", text="")
+    sub = col.column()
+    sub.active = r.use_motion_blur
+    sub.prop(r, "motion_blur_shutter")
+    if "motion_blur_position" in r.bl_rna.properties:
+        sub.prop(r, "motion_blur_position")
+    sub.prop(scene.splatline.render, "motion_blur_samples", text="Samples")
 
 
 def path_text(kind: str) -> str:

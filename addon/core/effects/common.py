@@ -136,30 +136,6 @@ def join(cols) -> np.ndarray:
     return np.stack(cols, axis=1).astype(F32, copy=False)
 
 
-def quat_multiply(a, b) -> np.ndarray:
-    """Hamilton product a*b (applies b, then a) of wxyz quaternions given as (N, 4) arrays
-    or lists of 4 columns; returns (N, 4)."""
-    aw, ax, ay, az = a if isinstance(a, list) else split(a)
-    bw, bx, by, bz = b if isinstance(b, list) else split(b)
-    w = aw * bw
-    w -= ax * bx
-    w -= ay * by
-    w -= az * bz
-    x = aw * bx
-    x += ax * bw
-    x += ay * bz
-    x -= az * by
-    y = aw * by
-    y -= ax * bz
-    y += ay * bw
-    y += az * bx
-    z = aw * bz
-    z += ax * by
-    z -= ay * bx
-    z += az * bw
-    return join([w, x, y, z])
-
-
 def rotate_quats_about(axis, cos_half: np.ndarray, sin_half: np.ndarray, q) -> np.ndarray:
     """(cos_half, sin_half * axis) * q for one constant unit axis (3,): the product with a
     pure quaternion of fixed axis is a fixed linear map, so zero axis terms cost nothing."""

@@ -61,6 +61,25 @@ def local_columns(positions: np.ndarray, frame: np.ndarray, axes=(0, 1, 2)) -> l
     return out
 
 
+def field_values(positions: np.ndarray, frame: np.ndarray, kind: str, noise=None) -> np.ndarray:
+    """A scalar field per splat (a fresh float32 array), measured in the field's frame:
+    HEIGHT (local z), DISTANCE (from the frame's origin) or NOISE (noise: the memoized
+    value noise of these splats, mapped from [-1, 1] to [0, 1])."""
+    if kind == "HEIGHT":
+        return local_columns(positions, frame, (2,))[0]
+    if kind == "NOISE":
+        value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
+        value += F32(0.5)
+        return value
+    if kind != "DISTANCE":
+        raise ValueError(f"unknown field {kind!r}")
+    x, y, z = local_columns(positions, frame)
+    x *= x
+    x += y * y
+    x += z * z
+    return np.sqrt(x, out=x)
+
+
 BLOCK = 1 << 16  # rows per block: a block's temporaries stay in cache
 
 

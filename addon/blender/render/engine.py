@@ -4,7 +4,7 @@ Blender makes a new engine instance for every frame, so the offscreen renderer (
 GL context, worker thread and GPU buffers) lives in a module-level holder instead:
 created on the first frame of a render job, reused by the following frames, and
 closed when the job completes or is cancelled, and on unregister.
-Headless Ctrl+C stops a job between frames (render_stop.py).
+Headless Ctrl+C stops a job between frames (core/stop.py).
 """
 from __future__ import annotations
 
@@ -13,14 +13,14 @@ import traceback
 
 import bpy
 
+from ...core.colorspace import composite_over, premultiplied_srgb_to_linear as to_scene_linear
 from ...core.errors import SplatFormatError
+from ...core.stop import SigintGuard, stop_requested
 from . import paths as render_paths
 from .camera import camera_from_blender
 from ..compat import world_uses_nodes
 from ..evaluate.items import collect_items
-from .film import (blender_depth, bottom_up, composite_over, region_camera, render_region,
-                   to_scene_linear)
-from .stop import SigintGuard, stop_requested
+from .film import blender_depth, bottom_up, region_camera, render_region
 
 
 class _RendererHolder:

@@ -12,12 +12,12 @@ import math
 import numpy as np
 
 import bpy
-from bpy_extras import anim_utils
 from mathutils import Vector
 
 from ...core import framing, procedural
 from ...core.framing import Bounds
 from ...core.procedural import coherent_order
+from ..data.animation import set_interpolation
 from ..data.capture_camera import splat_world_points
 from ..data.files import import_file
 from ..data.pointcloud import new_pointcloud_object
@@ -97,16 +97,7 @@ class _Timeline:
 def _key(owner, prop: str, frame: int, value, interpolation: str = "BEZIER") -> None:
     setattr(owner, prop, value)
     owner.keyframe_insert(prop, frame=frame)
-    _set_interpolation(owner, prop, frame, interpolation)
-
-
-def _set_interpolation(owner, prop, frame, interpolation):
-    anim = owner.id_data.animation_data
-    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
-    curve = bag.fcurves.find(owner.path_from_id(prop))
-    for point in curve.keyframe_points:
-        if int(round(point.co.x)) == frame:
-            point.interpolation = interpolation
+    set_interpolation(owner.id_data, interpolation, owner.path_from_id(prop), frame)
 
 
 def _add_effect(obj, kind: str, name: str):

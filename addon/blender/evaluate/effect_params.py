@@ -11,6 +11,7 @@ import dataclasses
 import numpy as np
 
 from ...core import effects as fx
+from ..data.animation import channel_fcurves
 
 POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
 TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through keyframes
@@ -43,25 +44,6 @@ def world_matrix(obj, depsgraph) -> np.ndarray:
     if obj.parent is None:
         return local
     return world_matrix(obj.parent, depsgraph) @ np.array(obj.matrix_parent_inverse, np.float64) @ local
-
-
-def channel_fcurves(obj):
-    """Every F-curve of obj's action (layered actions of Blender 4.4+) and its drivers."""
-    anim = obj.animation_data
-    if anim is None:
-        return []
-    curves = list(anim.drivers)
-    action = anim.action
-    if action is not None:
-        if getattr(action, "is_action_layered", False):
-            for layer in action.layers:
-                for strip in layer.strips:
-                    bag = strip.channelbag(anim.action_slot) if anim.action_slot else None
-                    if bag is not None:
-                        curves.extend(bag.fcurves)
-        elif hasattr(action, "fcurves"):
-            curves.extend(action.fcurves)
-    return curves
 
 
 def _transform_curves(obj) -> dict:

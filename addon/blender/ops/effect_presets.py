@@ -7,10 +7,10 @@ import json
 import pathlib
 
 import bpy
-from bpy_extras import anim_utils
 
 from ...core import effect_presets as core
 from ..evaluate import effect_params
+from ..data.animation import action_fcurves, set_interpolation
 from ..data.pointcloud import is_splat_object, read_positions
 from .presets import find_preset, list_presets
 
@@ -97,7 +97,7 @@ def _apply_block(obj, group, path, block: core.Block, frame, context):
             with _where(f"{path}.{prop}"):
                 _assign(group, prop, core.resolve(value, context))
                 obj.keyframe_insert(data_path=f"{path}.{prop}", frame=frame + offset)
-        _set_interpolation(obj, f"{path}.{prop}", block.interpolation)
+        set_interpolation(obj, block.interpolation, f"{path}.{prop}")
 
 
 @contextlib.contextmanager
@@ -115,15 +115,6 @@ def _assign(group, prop, value):
     if not hasattr(group, prop):
         raise ValueError(f"{type(group).__name__} has no property {prop!r}")
     setattr(group, prop, value)
-
-
-def _set_interpolation(obj, data_path, interpolation):
-    anim = obj.animation_data
-    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
-    for curve in bag.fcurves:
-        if curve.data_path == data_path:
-            for point in curve.keyframe_points:
-                point.interpolation = interpolation
 
 
 def user_dir() -> pathlib.Path:
@@ -161,12 +152,8 @@ def _effect_fields(effect) -> dict:
 def _keys_for(obj, prefix, frame) -> dict:
     """{prop: [[offset, value], ...]} for the keyed properties under prefix; vector
     properties are merged across their array indices (keys on the same frames)."""
-    anim = obj.animation_data
-    if anim is None or anim.action is None:
-        return {}
-    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
     by_prop: dict[str, dict[float, dict[int, float]]] = {}
-    for curve in (bag.fcurves if bag else []):
+    for curve in action_fcurves(obj):
         prop = curve.data_path[len(prefix):]
         if not curve.data_path.startswith(prefix) or "[" in prop or "." in prop:
             continue

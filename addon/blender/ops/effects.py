@@ -11,8 +11,7 @@ import bpy
 from bpy.props import EnumProperty
 
 from ..data.pointcloud import is_splat_object
-from ..evaluate import items as evaluate
-from ..evaluate.effect_params import channel_fcurves as _channel_fcurves
+from ..data.animation import channel_fcurves, remove_fcurve
 from ..props.effect import FIELDS, TYPES
 
 _PATH = re.compile(r"^splatline\.effects\[(\d+)\]")
@@ -21,7 +20,7 @@ _PATH = re.compile(r"^splatline\.effects\[(\d+)\]")
 def remap_effect_curves(obj, mapping: dict) -> None:
     """Re-point F-curves of effect i to effect mapping[i] (None: delete the curve)."""
     doomed = []
-    for curve in _channel_fcurves(obj):
+    for curve in channel_fcurves(obj):
         match = _PATH.match(curve.data_path)
         if match is None:
             continue
@@ -34,23 +33,7 @@ def remap_effect_curves(obj, mapping: dict) -> None:
         else:
             curve.data_path = f"splatline.effects[{new}]" + curve.data_path[match.end():]
     for curve in doomed:
-        _remove(obj, curve)
-
-
-def _remove(obj, curve):
-    anim = obj.animation_data
-    if curve in list(anim.drivers):
-        anim.drivers.remove(curve)
-        return
-    if not getattr(anim.action, "is_action_layered", False):
-        anim.action.fcurves.remove(curve)
-        return
-    for layer in anim.action.layers:
-        for strip in layer.strips:
-            bag = strip.channelbag(anim.action_slot)
-            if bag is not None and curve in list(bag.fcurves):
-                bag.fcurves.remove(curve)
-                return
+        remove_fcurve(obj, curve)
 
 
 def _effects(context):

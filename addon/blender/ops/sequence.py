@@ -1,5 +1,6 @@
 """File > Import > Splat Sequence, File > Export > Evaluated Splats, the bake operator and
-the Object-properties panel of a sequence. unregister() also joins the read-ahead thread."""
+the Object-properties panel of a sequence (the frame cache and its handlers are
+evaluate/sequence_frames.py's)."""
 from __future__ import annotations
 
 import os
@@ -241,11 +242,6 @@ class _SaveRemap:
         self.previous = {}
 
 
-@bpy.app.handlers.persistent
-def _on_load(*_args):
-    sequence_runtime.forget_objects()
-
-
 _save_remap = None
 
 
@@ -260,7 +256,6 @@ def register():
     _save_remap = _SaveRemap()
     bpy.app.handlers.save_pre.append(_save_remap.pre)
     bpy.app.handlers.save_post.append(_save_remap.post)
-    bpy.app.handlers.load_post.append(_on_load)
     bpy.types.TOPBAR_MT_file_import.append(_menu_import)
     bpy.types.TOPBAR_MT_file_export.append(_menu_export)
 
@@ -273,10 +268,7 @@ def unregister():
             if fn in handlers:
                 handlers.remove(fn)
         _save_remap = None
-    while _on_load in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.remove(_on_load)
     bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
     for cls in reversed(_CLASSES):
         bpy.utils.unregister_class(cls)
-    sequence_runtime.shutdown()

@@ -69,11 +69,15 @@ def _menu_import(self, context):
                          text="Splat Camera Track (.json, .ssproj)")
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(
+    (IMPORT_SCENE_OT_splatline_camera_track,))
+
+
 def register():
-    bpy.utils.register_class(IMPORT_SCENE_OT_splatline_camera_track)
+    _register_classes()
     bpy.types.TOPBAR_MT_file_import.append(_menu_import)
 
 
 def unregister():
     bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
-    bpy.utils.unregister_class(IMPORT_SCENE_OT_splatline_camera_track)
+    _unregister_classes()

@@ -304,9 +304,11 @@ def _effects_panel():
     return getattr(bpy.types, "SPLATLINE_PT_effects", None)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     panel = _effects_panel()
     if panel is not None:
         panel.append(_draw_in_effects_panel)
@@ -316,5 +318,4 @@ def unregister():
     panel = _effects_panel()
     if panel is not None:
         panel.remove(_draw_in_effects_panel)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

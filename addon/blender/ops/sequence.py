@@ -249,10 +249,12 @@ _CLASSES = (IMPORT_SCENE_OT_splatline_sequence, EXPORT_SCENE_OT_splatline_evalua
             SPLATLINE_OT_bake_sequence, OBJECT_PT_splatline_sequence)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(_CLASSES)
+
+
 def register():
     global _save_remap
-    for cls in _CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     _save_remap = _SaveRemap()
     bpy.app.handlers.save_pre.append(_save_remap.pre)
     bpy.app.handlers.save_post.append(_save_remap.post)
@@ -270,5 +272,4 @@ def unregister():
         _save_remap = None
     bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
-    for cls in reversed(_CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -253,8 +253,11 @@ _JOB_HANDLERS = (("render_init", _job_started), ("render_complete", _job_finishe
                  ("render_cancel", _job_finished))
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((SplatlineRenderEngine,))
+
+
 def register():
-    bpy.utils.register_class(SplatlineRenderEngine)
+    _register_classes()
     for name, fn in _JOB_HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
 
@@ -266,4 +269,4 @@ def unregister():
             handlers.remove(fn)
     _HOLDER.close()
     _SIGINT.job_ended()
-    bpy.utils.unregister_class(SplatlineRenderEngine)
+    _unregister_classes()

@@ -30,11 +30,14 @@ def _draw_in_object_menu(self, context):
     self.layout.menu(SPLATLINE_MT_object.bl_idname)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((SPLATLINE_MT_object,))
+
+
 def register():
-    bpy.utils.register_class(SPLATLINE_MT_object)
+    _register_classes()
     bpy.types.VIEW3D_MT_object.append(_draw_in_object_menu)
 
 
 def unregister():
     bpy.types.VIEW3D_MT_object.remove(_draw_in_object_menu)
-    bpy.utils.unregister_class(SPLATLINE_MT_object)
+    _unregister_classes()

@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, blocks, field_values
-from .noise import field as noise_field
+from .common import F32, EffectParams, field_blocks
+from .noise import rest_field
 
 FIELDS = ("HEIGHT", "DISTANCE", "NOISE")
 MODES = ("MIX", "MULTIPLY", "ADD")
@@ -56,15 +56,10 @@ def apply(splats, p: Grade, time: float = 0.0, rest=None):
         raise ValueError(f"Grade mode {p.mode!r} is not one of {MODES}")
     if p.field not in FIELDS:
         raise ValueError(f"Grade field {p.field!r} is not one of {FIELDS}")
-    noise = None
-    if p.field == "NOISE":
-        centres = splats.positions if rest is None else rest
-        noise = noise_field(centres, p.frame, p.frequency, p.seed)[0]
+    noise = rest_field(splats, rest, p) if p.field == "NOISE" else None
     dc = np.empty_like(splats.sh_dc)
-    for part in blocks(splats.count):
-        _grade_block(splats.sh_dc[part], field_values(splats.positions[part], p.frame, p.field,
-                                                       None if noise is None else noise[part]),
-                     p, dc[part])
+    for part, x in field_blocks(splats.positions, p.frame, p.field, noise):
+        _grade_block(splats.sh_dc[part], x, p, dc[part])
     return replace(splats, sh_dc=dc)
 
 

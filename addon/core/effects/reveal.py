@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, add_rows, blocks, field_values, scale_rows, smoothstep01
-from .noise import field as noise_field
+from .common import F32, EffectParams, add_rows, field_blocks, scale_rows, smoothstep01
+from .noise import rest_field
 
 SHAPES = ("PLANE", "SPHERE", "NOISE")
 _FIELD = {"PLANE": "HEIGHT", "SPHERE": "DISTANCE", "NOISE": "NOISE"}  # common.field_values
@@ -50,16 +50,12 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
         return splats
     if p.shape not in _FIELD:
         raise ValueError(f"Reveal shape {p.shape!r} is not one of {SHAPES}")
-    noise = None
-    if p.shape == "NOISE":
-        centres = splats.positions if rest is None else rest
-        noise = noise_field(centres, p.frame, p.frequency, p.seed)[0]
+    noise = rest_field(splats, rest, p) if p.shape == "NOISE" else None
     opacities = np.empty_like(splats.opacities)
     scales = np.empty_like(splats.scales) if p.shrink > 0.0 else None
     sh_dc = np.empty_like(splats.sh_dc) if p.glow_strength > 0.0 else None
-    for part in blocks(splats.count):
-        s = edge_position(field_values(splats.positions[part], p.frame, _FIELD[p.shape],
-                                       None if noise is None else noise[part]), p)
+    for part, f in field_blocks(splats.positions, p.frame, _FIELD[p.shape], noise):
+        s = edge_position(f, p)
         if sh_dc is not None:
             glow = s * (F32(1.0) - s)
             glow *= F32(4.0 * p.amount * p.glow_strength / C0)

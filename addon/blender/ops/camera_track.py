@@ -13,6 +13,7 @@ from ...core.camtrack import read_track
 from ...core.errors import SplatFormatError
 from ..data.capture_camera import add_track_camera
 from ..data.pointcloud import is_splat_object
+from ..registration import classes_and_menus
 
 
 def _reference(context):
@@ -69,15 +70,5 @@ def _menu_import(self, context):
                          text="Splat Camera Track (.json, .ssproj)")
 
 
-_register_classes, _unregister_classes = bpy.utils.register_classes_factory(
-    (IMPORT_SCENE_OT_splatline_camera_track,))
-
-
-def register():
-    _register_classes()
-    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
-
-
-def unregister():
-    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
-    _unregister_classes()
+register, unregister = classes_and_menus((IMPORT_SCENE_OT_splatline_camera_track,),
+                                         (("TOPBAR_MT_file_import", _menu_import),))

@@ -16,6 +16,7 @@ from ..data.sequences import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, import_sequ
 from ..data.pointcloud import is_splat_object
 from ..evaluate.bake import bake_frames, export_evaluated
 from ..props.sequence import _LOOP_ITEMS
+from ..registration import classes_and_menus
 
 
 def _splat_object(context):
@@ -249,7 +250,8 @@ _CLASSES = (IMPORT_SCENE_OT_splatline_sequence, EXPORT_SCENE_OT_splatline_evalua
             SPLATLINE_OT_bake_sequence, OBJECT_PT_splatline_sequence)
 
 
-_register_classes, _unregister_classes = bpy.utils.register_classes_factory(_CLASSES)
+_register_classes, _unregister_classes = classes_and_menus(
+    _CLASSES, (("TOPBAR_MT_file_import", _menu_import), ("TOPBAR_MT_file_export", _menu_export)))
 
 
 def register():
@@ -258,8 +260,6 @@ def register():
     _save_remap = _SaveRemap()
     bpy.app.handlers.save_pre.append(_save_remap.pre)
     bpy.app.handlers.save_post.append(_save_remap.post)
-    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
-    bpy.types.TOPBAR_MT_file_export.append(_menu_export)
 
 
 def unregister():
@@ -270,6 +270,4 @@ def unregister():
             if fn in handlers:
                 handlers.remove(fn)
         _save_remap = None
-    bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
-    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
     _unregister_classes()

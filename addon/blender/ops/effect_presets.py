@@ -13,6 +13,7 @@ from ..evaluate import effect_params
 from ..data.animation import action_fcurves, set_interpolation
 from ..data.pointcloud import is_splat_object, read_positions
 from .presets import find_preset, list_presets
+from .reporting import finish_reporting
 
 USER_SUBDIR = "presets/splatline/effects"
 
@@ -193,14 +194,14 @@ class SPLATLINE_OT_effect_preset_apply(bpy.types.Operator):
     def execute(self, context):
         obj = _active_splat_object(context)
         others = [o for o in context.selected_objects if o is not obj and is_splat_object(o)]
-        try:
+        frame = context.scene.frame_current
+
+        def apply():
             preset = core.load(find_preset(self.preset, "effects", ".json"))
-            apply_preset(obj, preset, context.scene.frame_current, others[0] if others else None)
-        except (KeyError, core.PresetError) as exc:  # apply_preset turns bpy's errors into these
-            self.report({"ERROR"}, _one_line(exc))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"{preset.label}: added to {obj.name} at frame {context.scene.frame_current}")
-        return {"FINISHED"}
+            apply_preset(obj, preset, frame, others[0] if others else None)
+            return f"{preset.label}: added to {obj.name} at frame {frame}"
+        # apply_preset turns bpy's errors into PresetError
+        return finish_reporting(self, apply, (KeyError, core.PresetError), _one_line)
 
 
 class SPLATLINE_OT_effect_preset_add(bpy.types.Operator):
@@ -224,14 +225,12 @@ class SPLATLINE_OT_effect_preset_add(bpy.types.Operator):
             self.report({"ERROR"}, "an effect preset needs a name")
             return {"CANCELLED"}
         data = capture_preset(obj, context.scene.frame_current, self.name)
-        try:
+
+        def write():
             path = user_dir() / (bpy.path.clean_name(self.name.strip()).lower() + ".json")
             path.write_text(json.dumps(data, indent=1))
-        except OSError as exc:
-            self.report({"ERROR"}, f"cannot save effect preset {self.name!r}: {_os_text(exc)}")
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"saved {path}")
-        return {"FINISHED"}
+            return f"saved {path}"
+        return _on_user_file(self, write, f"save effect preset {self.name!r}")
 
 
 class SPLATLINE_OT_effect_preset_remove(bpy.types.Operator):
@@ -242,18 +241,20 @@ class SPLATLINE_OT_effect_preset_remove(bpy.types.Operator):
     preset: bpy.props.StringProperty(name="Preset")
 
     def execute(self, context):
-        try:
+        def unlink():
             # A bare file stem only: the name must not reach outside the preset folder.
             path = user_dir() / f"{pathlib.Path(self.preset).name}.json"
             if not self.preset or path.stem != self.preset or not path.is_file():
                 self.report({"ERROR"}, f"{self.preset}: not a user preset (bundled presets can't be removed)")
-                return {"CANCELLED"}
+                return None
             path.unlink()
-        except OSError as exc:
-            self.report({"ERROR"}, f"cannot remove effect preset {self.preset!r}: {_os_text(exc)}")
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"removed {path}")
-        return {"FINISHED"}
+            return f"removed {path}"
+        return _on_user_file(self, unlink, f"remove effect preset {self.preset!r}")
+
+
+def _on_user_file(op, action, what: str) -> set:
+    """finish_reporting for a change to the user preset folder (an OSError: cannot `what`)."""
+    return finish_reporting(op, action, OSError, lambda exc: f"cannot {what}: {_os_text(exc)}")
 
 
 class SPLATLINE_MT_effect_presets(bpy.types.Menu):

@@ -17,6 +17,7 @@ from ..data.pointcloud import is_splat_object
 from ..evaluate.bake import bake_frames, export_evaluated
 from ..props.sequence import _LOOP_ITEMS
 from ..registration import classes_and_menus
+from .reporting import finish_reporting
 
 
 def _splat_object(context):
@@ -44,15 +45,13 @@ class IMPORT_SCENE_OT_splatline_sequence(bpy.types.Operator, ImportHelper):
     def execute(self, context):
         # a chosen file names the pattern; a folder alone picks its largest numbered group
         path = self.filepath if os.path.isfile(self.filepath) else (self.directory or self.filepath)
-        try:
+
+        def load():
             obj = import_sequence(context, path, align=self.align, loop_mode=self.loop_mode,
                                   set_scene_range=self.set_scene_range)
-        except SplatFormatError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        seq = obj.splatline.sequence
-        self.report({"INFO"}, f"{obj.name}: {seq.frame_count} frames from {seq.directory}")
-        return {"FINISHED"}
+            seq = obj.splatline.sequence
+            return f"{obj.name}: {seq.frame_count} frames from {seq.directory}"
+        return finish_reporting(self, load, SplatFormatError)
 
 
 class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
@@ -74,13 +73,11 @@ class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
         path = self.filepath
         if os.path.splitext(path)[1].lower() not in (".ply", ".splat"):
             path += ".ply"
-        try:
+
+        def write():
             export_evaluated(_splat_object(context), context.evaluated_depsgraph_get(), path)
-        except SplatFormatError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"wrote {path}")
-        return {"FINISHED"}
+            return f"wrote {path}"
+        return finish_reporting(self, write, SplatFormatError)
 
 
 class SPLATLINE_OT_bake_sequence(bpy.types.Operator):

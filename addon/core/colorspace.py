@@ -18,11 +18,20 @@ def srgb_to_linear(c, dtype=np.float64) -> np.ndarray:
     """The decoding curve, computed in `dtype` (float32 for the engine's frames: within
     1e-6 relative of float64, far below an 8-bit step or a half-float EXR's precision)."""
     c = np.asarray(c, dtype)
-    x = np.abs(c.reshape(-1))
-    lin = x * dtype(1.0 / 12.92)
-    power = x > dtype(_SRGB_KNEE)
-    lin[power] = ((x[power] + dtype(_A)) * dtype(1.0 / (1.0 + _A))) ** dtype(2.4)
+    lin = _decode_(np.abs(c.reshape(-1)))
     return np.copysign(lin, c.reshape(-1), out=lin).reshape(c.shape)
+
+
+def _decode_(x: np.ndarray) -> np.ndarray:
+    """The curve for x >= 0, in place and in x's dtype (below 0: the linear segment goes on)."""
+    dtype = x.dtype.type
+    power = x > dtype(_SRGB_KNEE)
+    high = x[power]
+    x *= dtype(1.0 / 12.92)
+    high += dtype(_A)
+    high *= dtype(1.0 / (1.0 + _A))
+    x[power] = np.power(high, dtype(2.4), out=high)
+    return x
 
 
 def linear_to_srgb(v) -> np.ndarray:
@@ -43,7 +52,7 @@ def premultiplied_srgb_to_linear(rgba) -> np.ndarray:
     alpha = rgba[..., 3]
     covered = alpha > 0
     a = alpha[covered][:, None]
-    out[covered, :3] = srgb_to_linear(rgba[covered, :3] / a, np.float32) * a
+    out[covered, :3] = _decode_(rgba[covered, :3] / a) * a  # colours >= 0: no mirror needed
     out[..., 3] = alpha
     return out
 

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .reframe import reframe, rotate as rotate_splats
+from .reframe import reframe, turn
 from .select import limit_count
 from .splats import SplatSet, sh_coeff_count
 
@@ -32,8 +32,9 @@ def transform(splats: SplatSet, translate=(0, 0, 0), rotate=(0, 0, 0), scale=1.0
     view-dependent colour turns too) and grow with scale."""
     if scale <= 0 or not np.isfinite(scale):
         raise ValueError(f"scale must be a positive number, not {scale}")
-    positions, rotations, rest = rotate_splats(splats, _euler_matrix(rotate))
-    pos = scale * positions + np.asarray(translate, np.float64)
+    r = _euler_matrix(rotate)
+    rotations, rest = turn(splats, r)
+    pos = scale * (splats.positions.astype(np.float64) @ r.T) + np.asarray(translate, np.float64)
     return replace(splats, positions=pos.astype(np.float32), rotations=rotations,
                    scales=(splats.scales * np.float32(scale)).astype(np.float32), sh_rest=rest)
 

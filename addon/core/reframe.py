@@ -4,8 +4,8 @@ writing a format whose convention differs from the data's, e.g. an SPZ import ex
 
 Importing never reframes: the convention goes on the object's transform. Export does it
 only when the target format's convention differs from the data's. Rotations turn the
-centres, the quaternions and the higher SH bands alike (`rotate_sh`), so the view-dependent
-colour turns with the splats.
+centres, the quaternions and the higher SH bands alike (`turn`, `rotate_sh`), so the
+view-dependent colour turns with the splats.
 """
 from __future__ import annotations
 
@@ -35,23 +35,23 @@ def sh_rotation(r: np.ndarray, degree: int) -> np.ndarray:
     return np.linalg.lstsq(target, source, rcond=None)[0]
 
 
-def rotate_sh(rest: np.ndarray, rot: np.ndarray) -> np.ndarray:
-    """Higher SH (N, K, 3) of splats turned by rot (float64 inside, float32 out); the same
-    array where rot leaves them unchanged (degree 0, or no turn)."""
+def rotate_sh(rest: np.ndarray, rot: np.ndarray, dtype=np.float64) -> np.ndarray:
+    """Higher SH (N, K, 3) of splats turned by rot (computed in dtype, float32 out); the
+    same array where rot leaves them unchanged (degree 0, or no turn)."""
     m = sh_rotation(rot, sh_degree_for(rest.shape[1]))
     if m.size == 0 or np.allclose(m, np.eye(len(m)), atol=1e-9):
         return rest
-    out = np.einsum("jk,nkc->njc", m, rest.astype(np.float64), optimize=True)
-    return out.astype(np.float32).reshape(rest.shape)
+    out = np.einsum("jk,nkc->njc", m.astype(dtype), rest.astype(dtype, copy=False), optimize=True)
+    return out.astype(np.float32, copy=False).reshape(rest.shape)
 
 
-def rotate(splats: SplatSet, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(positions r p, rotations, sh_rest) of splats turned by the rotation matrix r;
-    positions in float64, for the caller to scale and move."""
-    q = quaternion.from_matrix(np.asarray(r, np.float64)[None])
-    rotations = quaternion.multiply(q, splats.rotations.astype(np.float64))
-    positions = splats.positions.astype(np.float64) @ np.asarray(r, np.float64).T
-    return positions, rotations, rotate_sh(splats.sh_rest, r)
+def turn(splats: SplatSet, r: np.ndarray, dtype=np.float64) -> tuple:
+    """(rotations, sh_rest) of splats turned by the rotation matrix r (their centres are the
+    caller's: r p, then its own scale and move). Computed in `dtype`: float32 for a morph
+    target, re-mapped whenever it moves (3x faster at 1M splats than float64)."""
+    q = quaternion.from_matrix(np.asarray(r, np.float64)[None]).astype(dtype)
+    rotations = quaternion.multiply(q, splats.rotations.astype(dtype, copy=False))
+    return rotations, rotate_sh(splats.sh_rest, r, dtype)
 
 
 def reframe(splats: SplatSet, axes: str) -> SplatSet:
@@ -59,9 +59,9 @@ def reframe(splats: SplatSet, axes: str) -> SplatSet:
     if splats.axes == axes:
         return splats
     r = matrix_for(axes).T @ matrix_for(splats.axes)  # source file frame -> target file frame
-    positions, rotations, rest = rotate(splats, r)
-    return replace(splats, positions=positions.astype(np.float32), rotations=rotations,
-                   sh_rest=rest, axes=axes)
+    rotations, rest = turn(splats, r)
+    positions = (splats.positions.astype(np.float64) @ r.T).astype(np.float32)
+    return replace(splats, positions=positions, rotations=rotations, sh_rest=rest, axes=axes)
 
 
 def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
@@ -75,7 +75,7 @@ def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
     if s == 0.0:
         return splats
     u, _, vt = np.linalg.svd(linear / s)
-    _, rotations, rest = rotate(splats, u @ vt)
+    rotations, rest = turn(splats, u @ vt, np.float32)
     positions = (splats.positions.astype(np.float64) @ linear.T + relative[:3, 3]).astype(np.float32)
     return SplatSet(positions, splats.scales * np.float32(s), rotations, splats.opacities,
                     splats.sh_dc, rest, splats.axes)

@@ -18,6 +18,7 @@ import numpy as np
 from addon.core.effects import (Displace, Explode, Grade, Morph, Reveal, Twist, evaluate_stack,
                                 pair)
 from addon.core.effects import noise
+from addon.core.formats.synth import random_splats
 from addon.core.look import CropSphere, apply_crop
 from addon.core.splats import SplatSet
 
@@ -25,16 +26,8 @@ FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 
 
 def make_splats(n: int, degree: int, seed: int) -> SplatSet:
-    rng = np.random.default_rng(seed)
-    s = SplatSet.allocate(n, degree)
-    s.positions[:] = rng.uniform(-2.0, 2.0, (n, 3))
-    s.scales[:] = rng.uniform(0.005, 0.05, (n, 3))
-    q = rng.standard_normal((n, 4), dtype=np.float32)
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.uniform(0.1, 1.0, n)
-    s.sh_dc[:] = rng.normal(0.0, 0.5, (n, 3))
-    s.sh_rest[:] = rng.normal(0.0, 0.05, s.sh_rest.shape)
-    return s
+    return random_splats(n, degree, seed, box=True, log_scale=(np.log(0.005), np.log(0.05)),
+                         opacity=(0.1, 1.0), dc=0.5, rest=0.05)
 
 
 def measure(fn, runs: int) -> tuple[float, float]:

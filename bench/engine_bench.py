@@ -44,7 +44,8 @@ def _scene(bpy):
 def _row(bpy, scene, renderer, width, height):
     from addon.blender.render.camera import camera_from_blender
     from addon.blender.evaluate.items import collect_items
-    from addon.blender.render.film import bottom_up, to_scene_linear
+    from addon.blender.render.film import bottom_up
+    from addon.core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 
     scene.render.resolution_x, scene.render.resolution_y = width, height
     depsgraph = bpy.context.evaluated_depsgraph_get()

@@ -46,18 +46,8 @@ DEGREE = 1
 
 
 def _splats(n: int, degree: int = DEGREE):
-    from addon.core.splats import SplatSet
-
-    rng = np.random.default_rng(0)
-    s = SplatSet.allocate(n, degree)
-    s.positions[:] = rng.normal(0.0, 1.0, (n, 3))
-    s.scales[:] = np.exp(rng.uniform(-6.0, -3.0, (n, 3)))
-    q = rng.normal(size=(n, 4)).astype(np.float32)
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.uniform(0.05, 1.0, n)
-    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
-    s.sh_rest[:] = rng.normal(0.0, 0.2, s.sh_rest.shape)
-    return s
+    from addon.core.formats.synth import random_splats
+    return random_splats(n, degree, 0, spread=1.0, log_scale=(-6.0, -3.0), opacity=(0.05, 1.0), rest=0.2)
 
 
 def _view(step: int) -> np.ndarray:

@@ -26,7 +26,6 @@ const float SL_SH_C3_6 = -0.5900435899266435;
 const float SL_LOWPASS = 0.3;            // px^2 added to the 2D covariance diagonal
 const float SL_ALPHA_MIN = 1.0 / 255.0;  // fragments below this are dropped
 const float SL_ALPHA_MAX = 0.99;
-const float SL_FRUSTUM_SLACK = 1.3;      // J is built from t/z clamped to 1.3 tan(fov/2)
 // A projected axis longer than this many pixels is shortened to it. On any frame up to
 // 16384 px the Gaussian is then flat to within exp(-0.5*(2.4e4/1e7)^2) ~ 1 - 3e-6, and the
 // 2D covariance stays far from float32 overflow (scales 1e6 at depth 0.2 would reach 1e36).
@@ -77,18 +76,9 @@ vec2 sl_project_point(vec3 t, vec4 focal_centre, bool ortho)
     return vec2(c.x + f.x * t.x / d, c.y - f.y * t.y / d);
 }
 
-// Bounds (xmin, ymin, xmax, ymax) for t.xy / -z used in J: the frame plus a 15% margin
-// on each side, in pixels. For an unshifted camera this is INRIA's +-1.3 tan(fov/2);
-// for a shifted one it is the same margin around the actual frame (as core/project.py).
-vec4 sl_jacobian_bounds(vec2 frame_size, vec4 focal_centre)
-{
-    vec2 f = focal_centre.xy, c = focal_centre.zw, m = 0.15 * frame_size;
-    return vec4((-m.x - c.x) / f.x, (c.y - frame_size.y - m.y) / f.y,
-                (frame_size.x + m.x - c.x) / f.x, (c.y + m.y) / f.y);
-}
-
 // Jacobian d(u, v)/d(x, y, z) at camera-space point t (mat3x2: 3 columns, 2 rows).
-// Perspective: t.xy / -z is clamped to bounds (sl_jacobian_bounds) here only, never
+// Perspective: t.xy / -z is clamped to bounds (xmin, ymin, xmax, ymax: the frame plus a
+// 15% margin, core/project.j_clamp_bounds, passed in as a uniform) here only, never
 // for the centre itself.
 mat3x2 sl_jacobian(vec3 t, vec2 focal, vec4 bounds, bool ortho)
 {
@@ -99,13 +89,6 @@ mat3x2 sl_jacobian(vec3 t, vec2 focal, vec4 bounds, bool ortho)
         vec2(focal.x / d, 0.0),
         vec2(0.0, -focal.y / d),
         vec2(focal.x * txy.x / d, -focal.y * txy.y / d));
-}
-
-// INRIA's symmetric form: t.xy / -z clamped to +-1.3 tan(fov/2) (unshifted cameras).
-mat3x2 sl_jacobian(vec3 t, vec2 focal, vec2 tan_half_fov, bool ortho)
-{
-    vec2 lim = SL_FRUSTUM_SLACK * tan_half_fov;
-    return sl_jacobian(t, focal, vec4(-lim, lim), ortho);
 }
 
 // Equirectangular panorama (twin of core/equirect.py): longitude atan2(x, -z), latitude

@@ -5,22 +5,16 @@ import numpy as np
 
 from addon.core.axes import matrix_for
 from addon.core.camera import look_at, simple_camera
+from addon.core.formats import synth
 from addon.core.scene import RenderItem
 from addon.core.splats import SplatSet
 
 
 def random_splats(n: int, degree: int = 0, seed: int = 0, spread: float = 0.5,
                   log_scale: float = -3.0) -> SplatSet:
-    rng = np.random.default_rng(seed)
-    s = SplatSet.allocate(n, degree)
-    s.positions[:] = rng.normal(0.0, spread, (n, 3))
-    s.scales[:] = np.exp(rng.normal(log_scale, 0.5, (n, 3)))
-    q = rng.normal(size=(n, 4))
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.uniform(0.05, 1.0, n)
-    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
-    s.sh_rest[:] = rng.normal(0.0, 0.25, s.sh_rest.shape)
-    return s
+    """A small cloud about the origin, for the offscreen renderer's tests."""
+    return synth.random_splats(n, degree, seed, spread=spread, log_scale=log_scale,
+                               opacity=(0.05, 1.0), rest=0.25)
 
 
 def two_objects(n=1500):

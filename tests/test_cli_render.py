@@ -2,15 +2,14 @@
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
 
 from engine_scene import guitar_scene, read_exr_parts, read_image
+from interrupt import interrupt_after
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -88,19 +87,10 @@ def test_split_frame_ranges_give_identical_files(farm_blend, tmp_path):
 
 def test_sigint_keeps_every_finished_frame(guitar_blend, tmp_path):
     out = tmp_path / "frames"
-    proc = subprocess.Popen(_cli(guitar_blend, "--out", out, "--format", "EXR", "--frames", "1-60"),
-                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 60
-        while not (out / "frame_0001.exr").exists():
-            assert proc.poll() is None and time.monotonic() < deadline, "no first frame"
-            time.sleep(0.02)
-        proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130, stdout + stderr
+    returncode, stdout, stderr = interrupt_after(
+        _cli(guitar_blend, "--out", out, "--format", "EXR", "--frames", "1-60"), out / "frame_0001.exr",
+        cwd=ROOT)
+    assert returncode == 130, stdout + stderr
     assert "Traceback" not in stdout + stderr
     frames = sorted(out.glob("*.exr"))
     assert 1 <= len(frames) < 60

@@ -95,10 +95,10 @@ def test_move_and_remove_keep_keyframes_with_their_effect(bpy_empty):
     first, second = _add(bpy, obj, "REVEAL"), _add(bpy, obj, "TWIST")
     first.keyframe_insert("progress", frame=1)
     second.keyframe_insert("twist", frame=1)
-    from addon.blender.ops.effects import _channel_fcurves
+    from addon.blender.data.animation import channel_fcurves
 
     def paths():
-        return sorted(c.data_path for c in _channel_fcurves(obj))
+        return sorted(c.data_path for c in channel_fcurves(obj))
 
     obj.splatline.active_effect = 0
     with bpy.context.temp_override(object=obj):

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from addon.blender.render.film import (BACKGROUND_DEPTH, Region, blender_depth, bottom_up,
-                                       composite_over, region_camera, render_region,
-                                       to_scene_linear)
-from addon.core.colorspace import srgb_to_linear
+                                       region_camera, render_region)
+from addon.core.colorspace import composite_over, srgb_to_linear
+from addon.core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 from addon.core.camera import look_at, simple_camera
 
 

@@ -3,13 +3,11 @@ frame in progress, every finished frame stays whole and the script gets control 
 from __future__ import annotations
 
 import os
-import signal
-import subprocess
 import sys
 import textwrap
-import time
 
 from engine_scene import guitar_scene, read_image
+from interrupt import interrupt_after
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -40,22 +38,8 @@ def test_sigint_stops_a_bpy_script_render_between_frames(bpy_empty, testdata, tm
     out = tmp_path / "frames"
     script = tmp_path / "render.py"
     script.write_text(SCRIPT.format(root=ROOT, blend=str(blend), out=str(out / "f_####")))
-    # As from a terminal: SIGINT at its default. pytest-xdist workers ignore SIGINT, and
-    # a child would inherit that; Python then leaves SIGINT ignored, and so does the engine.
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    try:
-        deadline = time.monotonic() + 60
-        while not (out / "f_0001.png").exists():
-            assert proc.poll() is None and time.monotonic() < deadline, "no first frame"
-            time.sleep(0.02)
-        proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 3, stdout + stderr
+    returncode, stdout, stderr = interrupt_after([sys.executable, str(script)], out / "f_0001.png")
+    assert returncode == 3, stdout + stderr
     assert "caught: Error: Splatline: render interrupted" in stdout
     frames = sorted(out.glob("*.png"))
     assert 1 <= len(frames) < 200

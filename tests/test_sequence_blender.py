@@ -215,7 +215,6 @@ def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):
 
 
 def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_import):
-    from addon.blender.ops import sequence as sequence_ops
     from addon.blender.evaluate import sequence_frames as sequence_runtime
 
     paths, truth = frames
@@ -235,11 +234,11 @@ def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_impo
     # current frame of this object is left
     assert [k[1] for k in rt.cache.keys()] == [2] and rt.cache.nbytes == frame_bytes
     assert rt.read_ahead.running
-    sequence_ops.unregister()
+    sequence_runtime.unregister()  # the cache's owner: its unregister joins the thread
     try:
         assert not any(t.name == "splatline-readahead" for t in threading.enumerate())
     finally:
-        sequence_ops.register()
+        sequence_runtime.register()
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])  # a fresh runtime after re-register
 
 

@@ -5,6 +5,7 @@ import numpy as np
 
 from addon.core.camera import look_at, simple_camera
 from addon.core.formats import read
+from addon.core.formats.synth import random_splats
 from addon.core.scene import RenderItem
 from addon.core.splats import SplatSet
 
@@ -17,16 +18,8 @@ def rotation(axis, degrees) -> np.ndarray:
 
 
 def blob(n: int, degree: int, seed: int, centre, spread: float) -> SplatSet:
-    rng = np.random.default_rng(seed)
-    s = SplatSet.allocate(n, degree)
-    s.positions[:] = rng.normal(0.0, spread, (n, 3)) + np.asarray(centre)
-    s.scales[:] = np.exp(rng.normal(np.log(0.4 * spread), 0.5, (n, 3)))
-    q = rng.normal(size=(n, 4))
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.uniform(0.1, 0.95, n)
-    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
-    s.sh_rest[:] = rng.normal(0.0, 0.25, s.sh_rest.shape)
-    return s
+    return random_splats(n, degree, seed, centre=centre, spread=spread,
+                         log_scale=np.log(0.4 * spread), opacity=(0.1, 0.95), rest=0.25)
 
 
 def two_objects(testdata):

@@ -23,7 +23,8 @@ import statistics
 import time
 
 from . import UserError
-from .render import _Progress, _StopOnSigint, parse_resolution
+from .render import parse_resolution
+from .render_job import render_animation
 
 DEFAULT_OUT = os.path.join("out", "demo")
 MIN_FRAMES = 6  # one frame or more per act of the animation
@@ -88,18 +89,11 @@ def _clear_old_frames(folder: str) -> None:
 
 
 def _render_exr(bpy, scene) -> list[float]:
-    from ..blender.render import stop as render_stop
-
-    total = scene.frame_end - scene.frame_start + 1
-    with _Progress(bpy, total) as progress, _StopOnSigint(render_stop):
-        try:
-            bpy.ops.render.render(animation=True, scene=scene.name)
-        except RuntimeError as exc:
-            if not render_stop.stop_requested():
-                raise UserError(f"render failed: {' '.join(str(exc).split())}") from None
-    if render_stop.stop_requested():
+    times, stopped = render_animation(bpy, scene, scene.frame_end - scene.frame_start + 1,
+                                      "render failed")
+    if stopped:
         raise KeyboardInterrupt
-    return progress.times
+    return times
 
 
 def run(args) -> int:

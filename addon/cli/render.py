@@ -23,12 +23,12 @@ from __future__ import annotations
 import errno
 import os
 import re
-import signal
 import statistics
 import time
 
 from . import UserError
 from .capture_scene import CAMERA_HELP, is_blend
+from .render_job import render_animation
 from ..blender.compat import media_type, set_file_format
 
 FORMATS = ("EXR", "PNG", "MP4")
@@ -141,55 +141,6 @@ def _check_video_size(scene) -> None:
         raise UserError(f"MP4 (H.264) needs an even frame size, this one is {w}x{h}")
 
 
-class _Progress:
-    """Per-frame lines from Blender's render handlers (added for one render, then removed)."""
-
-    def __init__(self, bpy, total: int):
-        self.bpy, self.total, self.times, self._t0 = bpy, total, [], None
-        self._handlers = (("render_pre", self.pre), ("render_write", self.written))
-
-    def pre(self, scene, *_):
-        self._t0 = time.perf_counter()
-
-    def written(self, scene, *_):
-        seconds = time.perf_counter() - (self._t0 or time.perf_counter())
-        self.times.append(seconds)
-        frame = scene.frame_current
-        path = scene.render.frame_path(frame=frame)
-        print(f"frame {frame} ({len(self.times)}/{self.total})  {seconds:.2f} s  {path}", flush=True)
-
-    def __enter__(self):
-        for name, fn in self._handlers:
-            getattr(self.bpy.app.handlers, name).append(fn)
-        return self
-
-    def __exit__(self, *exc):
-        for name, fn in self._handlers:
-            handlers = getattr(self.bpy.app.handlers, name)
-            if fn in handlers:
-                handlers.remove(fn)
-
-
-class _StopOnSigint:
-    """First SIGINT: ask the engine to stop after saving nothing more; second: default."""
-
-    def __init__(self, stop):
-        self.stop, self._old = stop, None
-
-    def _handle(self, signum, frame):
-        self.stop.request_stop()
-        print("stopping: finished frames are kept (Ctrl+C again to quit now)", flush=True)
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-
-    def __enter__(self):
-        self.stop.clear_stop()
-        self._old = signal.signal(signal.SIGINT, self._handle)
-        return self
-
-    def __exit__(self, *exc):
-        signal.signal(signal.SIGINT, self._old)
-
-
 def _prepare(bpy, args):
     scene = bpy.context.scene
     scene.render.engine = "SPLATLINE"
@@ -277,28 +228,17 @@ def run(args) -> int:
     _check_args(args)
     bpy = _open_scene(args)
     os.makedirs(args.out, exist_ok=True)  # after the input is known good: nothing half-made
-    from ..blender.render import stop as render_stop
     scene = _prepare(bpy, args)
     total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))
     print(f"rendering {total} frame(s) {scene.frame_start}-{scene.frame_end} of {args.blend} "
           f"at {scene.render.resolution_x}x{scene.render.resolution_y} "
           f"{scene.render.resolution_percentage}% to {args.out}", flush=True)
     start = time.perf_counter()
-    with _Progress(bpy, total) as progress, _StopOnSigint(render_stop):
-        try:
-            bpy.ops.render.render(animation=True, scene=scene.name)
-        except RuntimeError as exc:
-            if not render_stop.stop_requested():
-                raise UserError(f"{args.blend}: {_one_line(exc)}") from None
-    if render_stop.stop_requested():
-        print(f"interrupted: {len(progress.times)} finished frame(s) kept in {args.out}", flush=True)
+    times, stopped = render_animation(bpy, scene, total, args.blend)
+    if stopped:
+        print(f"interrupted: {len(times)} finished frame(s) kept in {args.out}", flush=True)
         return 130
-    median = statistics.median(progress.times) if progress.times else 0.0
-    print(f"done: {len(progress.times)} frame(s) in {time.perf_counter() - start:.2f} s, "
+    median = statistics.median(times) if times else 0.0
+    print(f"done: {len(times)} frame(s) in {time.perf_counter() - start:.2f} s, "
           f"median {median:.2f} s per frame", flush=True)
     return 0
-
-
-def _one_line(exc) -> str:
-    text = " ".join(str(exc).split())
-    return text.removeprefix("Error: ") or type(exc).__name__

@@ -14,11 +14,24 @@ _SRGB_KNEE = 0.04045      # sRGB value where the curve turns linear
 _LINEAR_KNEE = 0.0031308  # the same point in linear terms (0.04045 / 12.92)
 
 
-def srgb_to_linear(c) -> np.ndarray:
-    c = np.asarray(c, np.float64)
-    x = np.abs(c)
-    lin = np.where(x <= _SRGB_KNEE, x / 12.92, ((x + _A) / (1.0 + _A)) ** 2.4)
-    return np.copysign(lin, c)
+def srgb_to_linear(c, dtype=np.float64) -> np.ndarray:
+    """The decoding curve, computed in `dtype` (float32 for the engine's frames: within
+    1e-6 relative of float64, far below an 8-bit step or a half-float EXR's precision)."""
+    c = np.asarray(c, dtype)
+    lin = _decode_(np.abs(c.reshape(-1)))
+    return np.copysign(lin, c.reshape(-1), out=lin).reshape(c.shape)
+
+
+def _decode_(x: np.ndarray) -> np.ndarray:
+    """The curve for x >= 0, in place and in x's dtype (below 0: the linear segment goes on)."""
+    dtype = x.dtype.type
+    power = x > dtype(_SRGB_KNEE)
+    high = x[power]
+    x *= dtype(1.0 / 12.92)
+    high += dtype(_A)
+    high *= dtype(1.0 / (1.0 + _A))
+    x[power] = np.power(high, dtype(2.4), out=high)
+    return x
 
 
 def linear_to_srgb(v) -> np.ndarray:
@@ -29,17 +42,25 @@ def linear_to_srgb(v) -> np.ndarray:
 
 
 def premultiplied_srgb_to_linear(rgba) -> np.ndarray:
-    """(..., 4) premultiplied sRGB RGBA -> premultiplied linear RGBA, same dtype.
+    """(..., 4) premultiplied sRGB RGBA -> premultiplied scene-linear RGBA, float32 (the
+    render engine's conversion of every renderer's output).
 
-    The curve applies to the straight colour: divide by alpha, convert, multiply
-    back. Where alpha is 0 the (premultiplied) colour is converted directly, so
-    additive emission with zero alpha keeps its meaning.
-    """
-    rgba = np.asarray(rgba)
-    out = np.empty(rgba.shape, np.float64)
-    a = rgba[..., 3:4].astype(np.float64)
-    rgb = rgba[..., :3].astype(np.float64)
-    safe = np.where(a > 0, a, 1.0)
-    out[..., :3] = srgb_to_linear(rgb / safe) * safe
-    out[..., 3:] = a
-    return out.astype(rgba.dtype if rgba.dtype.kind == "f" else np.float32)
+    The curve applies to the straight colour: divide by alpha, convert, multiply back.
+    Only covered pixels are converted; alpha-0 pixels stay exactly 0."""
+    rgba = np.asarray(rgba, np.float32)
+    out = np.zeros(rgba.shape, np.float32)
+    alpha = rgba[..., 3]
+    covered = alpha > 0
+    a = alpha[covered][:, None]
+    out[covered, :3] = _decode_(rgba[covered, :3] / a) * a  # colours >= 0: no mirror needed
+    out[..., 3] = alpha
+    return out
+
+
+def composite_over(rgba: np.ndarray, background_rgb) -> np.ndarray:
+    """Premultiplied rgba over an opaque scene-linear colour (the world): alpha becomes 1."""
+    out = np.array(rgba, np.float32, copy=True)
+    bg = np.asarray(background_rgb, np.float32)[:3]
+    out[..., :3] += (1.0 - out[..., 3:4]) * bg
+    out[..., 3] = 1.0
+    return out

@@ -10,8 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import quaternion
-from .reframe import reframe, sh_rotation
+from .reframe import reframe, turn
 from .select import limit_count
 from .splats import SplatSet, sh_coeff_count
 
@@ -34,14 +33,10 @@ def transform(splats: SplatSet, translate=(0, 0, 0), rotate=(0, 0, 0), scale=1.0
     if scale <= 0 or not np.isfinite(scale):
         raise ValueError(f"scale must be a positive number, not {scale}")
     r = _euler_matrix(rotate)
-    q = quaternion.from_matrix(r[None])[0]
-    rot = quaternion.multiply(q[None, :], splats.rotations.astype(np.float64))
-    m = sh_rotation(r, splats.sh_degree)
-    rest = np.einsum("jk,nkc->njc", m, splats.sh_rest.astype(np.float64)) if m.size else splats.sh_rest
+    rotations, rest = turn(splats, r)
     pos = scale * (splats.positions.astype(np.float64) @ r.T) + np.asarray(translate, np.float64)
-    return replace(splats, positions=pos.astype(np.float32), rotations=np.asarray(rot, np.float32),
-                   scales=(splats.scales * np.float32(scale)).astype(np.float32),
-                   sh_rest=np.asarray(rest, np.float32).reshape(splats.sh_rest.shape))
+    return replace(splats, positions=pos.astype(np.float32), rotations=rotations,
+                   scales=(splats.scales * np.float32(scale)).astype(np.float32), sh_rest=rest)
 
 
 def keep_box(splats: SplatSet, lo, hi) -> SplatSet:

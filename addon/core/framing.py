@@ -40,6 +40,11 @@ class Bounds:
         """Half the diagonal of the percentile box; never zero (a one-point capture)."""
         return max(0.5 * float(np.linalg.norm(self.high - self.low)), 1e-3)
 
+    @property
+    def size(self) -> float:
+        """The percentile box's diagonal (0 for a one-point capture)."""
+        return float(np.linalg.norm(self.high - self.low))
+
 
 def robust_bounds(points_world, low=LOW_PERCENTILE, high=HIGH_PERCENTILE) -> Bounds:
     """Per-axis percentile box of the finite points, and its middle."""
@@ -67,6 +72,15 @@ def fit_distance(bounds: Bounds, tan_half_x: float, tan_half_y: float) -> float:
     narrower field (a sphere: the orbit sees the subject from every side)."""
     half = math.atan(min(tan_half_x, tan_half_y))
     return MARGIN * bounds.radius / math.sin(half)
+
+
+def fit_box_distance(bounds: Bounds, tan_half_x: float, tan_half_y: float) -> float:
+    """Distance from the centre at which the box's horizontal diagonal fits the width and
+    its height (world z) fits the height of the frame, plus half that diagonal (the near
+    side): a tighter fit than fit_distance's sphere, for a view that stays near the side."""
+    extent = bounds.high - bounds.low
+    width, height = float(np.linalg.norm(extent[:2])), float(extent[2])
+    return max(width / 2 / tan_half_x, height / 2 / tan_half_y) + width / 2
 
 
 def front_pose(bounds: Bounds, up, forward, distance: float) -> np.ndarray:

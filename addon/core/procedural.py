@@ -102,3 +102,16 @@ def _surface_splats(positions, normal, tangent, rgb, degree, rng, size) -> Splat
     if degree >= 2:
         splats.sh_rest[:, 5] = 0.06
     return splats
+
+
+def coherent_order(positions: np.ndarray, slices: int = 256) -> np.ndarray:
+    """Splat order by azimuth about the z axis in equal-count slices, then by height in each.
+
+    Two sets of the same count in this order, paired by index (as the morph pairs equal
+    counts), morph as a sweep in which each splat keeps its bearing and its rank in height,
+    instead of a swarm: equal-count slices line the two sets' slices up exactly."""
+    azimuth = np.arctan2(positions[:, 1], positions[:, 0])
+    rank = np.empty(len(azimuth), np.int64)
+    rank[np.argsort(azimuth, kind="stable")] = np.arange(len(azimuth))
+    slice_index = rank * slices // max(1, len(azimuth))
+    return np.lexsort((positions[:, 2], slice_index))

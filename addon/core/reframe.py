@@ -1,8 +1,11 @@
-"""Re-express a SplatSet in another file axis convention (for writing a format whose
-convention differs from the data's, e.g. an SPZ import exported as .ply).
+"""Re-express a SplatSet in another frame: another file axis convention (`reframe`, for
+writing a format whose convention differs from the data's, e.g. an SPZ import exported as
+.ply), or another object's space (`map_into`, a morph target seen from the source object).
 
-Importing never does this: the convention goes on the object's transform. Export
-does it only when the target format's convention differs from the data's.
+Importing never reframes: the convention goes on the object's transform. Export does it
+only when the target format's convention differs from the data's. Rotations turn the
+centres, the quaternions and the higher SH bands alike (`turn`, `rotate_sh`), so the
+view-dependent colour turns with the splats.
 """
 from __future__ import annotations
 
@@ -10,38 +13,10 @@ from dataclasses import replace
 
 import numpy as np
 
+from . import quaternion
 from .axes import matrix_for
 from .sh import sh_basis
-from .splats import SplatSet, sh_coeff_count
-
-
-def _quat_from_matrix(r: np.ndarray) -> np.ndarray:
-    """w, x, y, z of a proper rotation matrix (the axis conversions are all 90/180 degrees,
-    so the simple trace branch is not enough: use the largest-diagonal branch)."""
-    m = r
-    t = np.trace(m)
-    if t > 0:
-        s = 2.0 * np.sqrt(1.0 + t)
-        return np.array([s / 4, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s])
-    i = int(np.argmax(np.diag(m)))
-    j, k = (i + 1) % 3, (i + 2) % 3
-    s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
-    q = np.empty(4)
-    q[0] = (m[k, j] - m[j, k]) / s
-    q[1 + i] = s / 4
-    q[1 + j] = (m[j, i] + m[i, j]) / s
-    q[1 + k] = (m[k, i] + m[i, k]) / s
-    return q
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of (4,) a with (N, 4) b, wxyz."""
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-                     w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                     w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=1)
+from .splats import SplatSet, sh_coeff_count, sh_degree_for
 
 
 def sh_rotation(r: np.ndarray, degree: int) -> np.ndarray:
@@ -60,19 +35,47 @@ def sh_rotation(r: np.ndarray, degree: int) -> np.ndarray:
     return np.linalg.lstsq(target, source, rcond=None)[0]
 
 
+def rotate_sh(rest: np.ndarray, rot: np.ndarray, dtype=np.float64) -> np.ndarray:
+    """Higher SH (N, K, 3) of splats turned by rot (computed in dtype, float32 out); the
+    same array where rot leaves them unchanged (degree 0, or no turn)."""
+    m = sh_rotation(rot, sh_degree_for(rest.shape[1]))
+    if m.size == 0 or np.allclose(m, np.eye(len(m)), atol=1e-9):
+        return rest
+    out = np.einsum("jk,nkc->njc", m.astype(dtype), rest.astype(dtype, copy=False), optimize=True)
+    return out.astype(np.float32, copy=False).reshape(rest.shape)
+
+
+def turn(splats: SplatSet, r: np.ndarray, dtype=np.float64) -> tuple:
+    """(rotations, sh_rest) of splats turned by the rotation matrix r (their centres are the
+    caller's: r p, then its own scale and move). Computed in `dtype`: float32 for a morph
+    target, re-mapped whenever it moves (3x faster at 1M splats than float64)."""
+    q = quaternion.from_matrix(np.asarray(r, np.float64)[None]).astype(dtype)
+    rotations = quaternion.multiply(q, splats.rotations.astype(dtype, copy=False))
+    return rotations, rotate_sh(splats.sh_rest, r, dtype)
+
+
 def reframe(splats: SplatSet, axes: str) -> SplatSet:
     """The same Gaussians with coordinates in convention `axes` (a new set; input untouched)."""
     if splats.axes == axes:
         return splats
     r = matrix_for(axes).T @ matrix_for(splats.axes)  # source file frame -> target file frame
-    q = _quat_from_matrix(r)
-    rotations = _quat_mul(q, splats.rotations.astype(np.float64))
-    m = sh_rotation(r, splats.sh_degree)
-    rest = np.einsum("jk,nkc->njc", m, splats.sh_rest.astype(np.float64)) if m.size else splats.sh_rest
-    return replace(
-        splats,
-        positions=(splats.positions.astype(np.float64) @ r.T).astype(np.float32),
-        rotations=rotations.astype(np.float32),
-        sh_rest=np.asarray(rest, np.float32).reshape(splats.sh_rest.shape),
-        axes=axes,
-    )
+    rotations, rest = turn(splats, r)
+    positions = (splats.positions.astype(np.float64) @ r.T).astype(np.float32)
+    return replace(splats, positions=positions, rotations=rotations, sh_rest=rest, axes=axes)
+
+
+def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
+    """Splats of another object expressed in this object's space (relative: 4x4 this<-that).
+
+    The linear part is split as R * s with s the cube root of |det| (exact for rotation and
+    uniform scale; a non-uniform relative scale is approximated by its mean). R turns the
+    centres, the rotations and the SH coefficients."""
+    linear = relative[:3, :3]
+    s = abs(np.linalg.det(linear)) ** (1.0 / 3.0)
+    if s == 0.0:
+        return splats
+    u, _, vt = np.linalg.svd(linear / s)
+    rotations, rest = turn(splats, u @ vt, np.float32)
+    positions = (splats.positions.astype(np.float64) @ linear.T + relative[:3, 3]).astype(np.float32)
+    return SplatSet(positions, splats.scales * np.float32(s), rotations, splats.opacities,
+                    splats.sh_dc, rest, splats.axes)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core import equirect
 from ..core.camera import Camera
-from ..core.project import J_CLAMP_MARGIN
+from ..core.project import j_clamp_bounds
 from ..core.scene import RenderItem
 
 
@@ -29,9 +29,8 @@ def set_uniform(prog, name: str, value):
 
 def camera_uniforms(camera: Camera) -> dict:
     w, h, fx, fy, cx, cy = camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
-    mx, my = J_CLAMP_MARGIN * w, J_CLAMP_MARGIN * h
-    # bounds of x/-z and y/-z (Blender camera axes) used in J; as core/project.py
-    bounds = ((-mx - cx) / fx, (cy - h - my) / fy, (w + mx - cx) / fx, (cy + my) / fy)
+    lo_x, hi_x, lo_y, hi_y = j_clamp_bounds(camera)  # of x/-z and y/-z (Blender camera axes)
+    bounds = (lo_x, lo_y, hi_x, hi_y)
     return {
         "u_focal_centre": (fx, fy, cx, cy),
         "u_jac_bounds": tuple(float(b) for b in bounds),

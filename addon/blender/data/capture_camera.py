@@ -14,6 +14,7 @@ import bpy
 from mathutils import Matrix
 
 from ...core import camtrack, framing
+from .animation import set_interpolation
 from .files import object_axes
 from .pointcloud import splats_from_pointcloud
 
@@ -70,7 +71,7 @@ def add_framing_camera(context, objects, mode="orbit", frame_start=None, frame_e
         poses = list(zip(range(start, end + 1), framing.orbit_poses(bounds, up, forward, distance, count)))
     for frame, matrix in poses:
         _key(camera, frame, matrix)
-    _linear(camera)
+    set_interpolation(camera, "LINEAR")  # a key a frame needs no easing between keys
     return camera
 
 
@@ -126,15 +127,3 @@ def _key(camera, frame, matrix) -> None:
         camera.rotation_euler = camera.rotation_euler.to_matrix().to_euler("XYZ", previous)
     camera.keyframe_insert("location", frame=frame)
     camera.keyframe_insert("rotation_euler", frame=frame)
-
-
-def _linear(camera) -> None:
-    """Linear between keys: a key a frame needs no easing (Blender's default Bezier would
-    ease in and out of every frame of the orbit)."""
-    from bpy_extras import anim_utils
-
-    anim = camera.animation_data
-    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
-    for fcurve in bag.fcurves if bag is not None else ():
-        for point in fcurve.keyframe_points:
-            point.interpolation = "LINEAR"

@@ -8,17 +8,19 @@ editable Splatline scene: scrub it, change a key in the graph editor, render it 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 import bpy
-from bpy_extras import anim_utils
 from mathutils import Vector
 
-from ...core import procedural
+from ...core import framing, procedural
+from ...core.framing import Bounds
+from ...core.procedural import coherent_order
+from ..data.animation import set_interpolation
+from ..data.capture_camera import splat_world_points
 from ..data.files import import_file
-from ..data.pointcloud import new_pointcloud_object, splats_from_pointcloud
+from ..data.pointcloud import new_pointcloud_object
 
 SOURCE_NAME = "Capture"
 TARGET_NAME = "Morph Target"
@@ -28,24 +30,9 @@ ACTS = {"reveal": (0.0, 0.26), "displace": (0.22, 0.52), "morph": (0.46, 0.76),
         "dissolve": (0.8, 1.0)}
 
 
-@dataclass
-class Bounds:
-    """World-space extent of the capture, robust to stray splats (2nd-98th percentile)."""
-    centre: np.ndarray
-    low: np.ndarray
-    high: np.ndarray
-
-    @property
-    def size(self) -> float:
-        return float(np.linalg.norm(self.high - self.low))
-
-
 def world_bounds(obj) -> Bounds:
-    local = splats_from_pointcloud(obj.data).positions.astype(np.float64)
-    matrix = np.array(obj.matrix_world, np.float64)
-    world = local @ matrix[:3, :3].T + matrix[:3, 3]
-    low, high = np.percentile(world, [2, 98], axis=0)
-    return Bounds((low + high) / 2, low, high)
+    """World-space extent of the capture, robust to stray splats (2nd-98th percentile)."""
+    return framing.robust_bounds(splat_world_points([obj]))
 
 
 def build(context, *, splats: int = 300_000, target_splats: int | None = None,
@@ -73,19 +60,6 @@ def build(context, *, splats: int = 300_000, target_splats: int | None = None,
     _animate_effects(source, target, bounds, timeline)
     camera = _add_camera(scene, bounds, timeline, aspect)
     return source, target, camera
-
-
-def coherent_order(positions: np.ndarray, slices: int = 256) -> np.ndarray:
-    """Splat order by azimuth about the z axis in equal-count slices, then by height in each.
-
-    Two sets of the same count in this order, paired by index (as the morph pairs equal
-    counts), morph as a sweep in which each splat keeps its bearing and its rank in height,
-    instead of a swarm: equal-count slices line the two sets' slices up exactly."""
-    azimuth = np.arctan2(positions[:, 1], positions[:, 0])
-    rank = np.empty(len(azimuth), np.int64)
-    rank[np.argsort(azimuth, kind="stable")] = np.arange(len(azimuth))
-    slice_index = rank * slices // max(1, len(azimuth))
-    return np.lexsort((positions[:, 2], slice_index))
 
 
 def _add_target(bounds: Bounds, count: int, degree: int):
@@ -123,16 +97,7 @@ class _Timeline:
 def _key(owner, prop: str, frame: int, value, interpolation: str = "BEZIER") -> None:
     setattr(owner, prop, value)
     owner.keyframe_insert(prop, frame=frame)
-    _set_interpolation(owner, prop, frame, interpolation)
-
-
-def _set_interpolation(owner, prop, frame, interpolation):
-    anim = owner.id_data.animation_data
-    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
-    curve = bag.fcurves.find(owner.path_from_id(prop))
-    for point in curve.keyframe_points:
-        if int(round(point.co.x)) == frame:
-            point.interpolation = interpolation
+    set_interpolation(owner.id_data, interpolation, owner.path_from_id(prop), frame)
 
 
 def _add_effect(obj, kind: str, name: str):
@@ -213,10 +178,7 @@ def _add_camera(scene, bounds: Bounds, timeline: _Timeline, aspect: float):
 
 
 def _fit_distance(bounds: Bounds, camera_data, aspect: float) -> float:
-    """Distance from the centre at which the capture's horizontal diagonal fits the width
-    and its height fits the height of the frame (plus half its depth, the near side)."""
-    extent = bounds.high - bounds.low
-    width, height = float(np.linalg.norm(extent[:2])), float(extent[2])
+    """framing.fit_box_distance for this camera's lens, sensor and frame aspect."""
     half = camera_data.sensor_width / 2 / camera_data.lens  # tan of the larger half-angle
     tan_x, tan_y = (half, half / aspect) if aspect >= 1.0 else (half * aspect, half)
-    return max(width / 2 / tan_x, height / 2 / tan_y) + width / 2
+    return framing.fit_box_distance(bounds, tan_x, tan_y)

@@ -7,14 +7,11 @@ Morph targets are the target object's base splats mapped into the source object'
 from __future__ import annotations
 
 import dataclasses
-import threading
 
 import numpy as np
 
 from ...core import effects as fx
-from ...core.effects.morph import pair
-from ...core.reframe import sh_rotation
-from ...core.splats import SplatSet, sh_degree_for
+from ..data.animation import channel_fcurves
 
 POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
 TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through keyframes
@@ -47,25 +44,6 @@ def world_matrix(obj, depsgraph) -> np.ndarray:
     if obj.parent is None:
         return local
     return world_matrix(obj.parent, depsgraph) @ np.array(obj.matrix_parent_inverse, np.float64) @ local
-
-
-def channel_fcurves(obj):
-    """Every F-curve of obj's action (layered actions of Blender 4.4+) and its drivers."""
-    anim = obj.animation_data
-    if anim is None:
-        return []
-    curves = list(anim.drivers)
-    action = anim.action
-    if action is not None:
-        if getattr(action, "is_action_layered", False):
-            for layer in action.layers:
-                for strip in layer.strips:
-                    bag = strip.channelbag(anim.action_slot) if anim.action_slot else None
-                    if bag is not None:
-                        curves.extend(bag.fcurves)
-        elif hasattr(action, "fcurves"):
-            curves.extend(action.fcurves)
-    return curves
 
 
 def _transform_curves(obj) -> dict:
@@ -165,70 +143,3 @@ def signature(params, extra=()) -> tuple:
         value = getattr(params, spec.name)
         values.append(value.tobytes() if isinstance(value, np.ndarray) else value)
     return tuple(values) + tuple(extra)
-
-
-def map_into(splats: SplatSet, relative: np.ndarray) -> SplatSet:
-    """Splats of another object expressed in this object's space (relative: 4x4 this<-that).
-
-    The linear part is split as R * s with s the cube root of |det| (exact for rotation and
-    uniform scale; a non-uniform relative scale is approximated by its mean). R turns the
-    centres, the rotations and the SH coefficients."""
-    linear = relative[:3, :3]
-    s = abs(np.linalg.det(linear)) ** (1.0 / 3.0)
-    if s == 0.0:
-        return splats
-    rot = linear / s
-    u, _, vt = np.linalg.svd(rot)
-    rot = u @ vt
-    positions = (splats.positions.astype(np.float64) @ linear.T + relative[:3, 3]).astype(np.float32)
-    q = _quat_from_matrix(rot).astype(np.float32)
-    rotations = fx.common.quat_multiply(np.broadcast_to(q, (splats.count, 4)), splats.rotations)
-    return SplatSet(positions, splats.scales * np.float32(s), rotations, splats.opacities,
-                    splats.sh_dc, rotate_sh(splats.sh_rest, rot), splats.axes)
-
-
-def rotate_sh(rest: np.ndarray, rot: np.ndarray) -> np.ndarray:
-    """Higher SH (N, K, 3) of splats turned by rot: their colours turn with them, as
-    reframe does for an axis convention (a morph target keeps its look from every side)."""
-    m = sh_rotation(rot, sh_degree_for(rest.shape[1]))
-    if m.size == 0 or np.allclose(m, np.eye(len(m)), atol=1e-9):
-        return rest
-    return np.einsum("jk,nkc->njc", m.astype(np.float32), rest, optimize=True)
-
-
-def _quat_from_matrix(m: np.ndarray) -> np.ndarray:
-    w = np.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
-    x = np.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0
-    y = np.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0
-    z = np.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0
-    x = np.copysign(x, m[2, 1] - m[1, 2])
-    y = np.copysign(y, m[0, 2] - m[2, 0])
-    z = np.copysign(z, m[1, 0] - m[0, 1])
-    q = np.array([w, x, y, z])
-    return q / np.linalg.norm(q)
-
-
-class MorphCache:
-    """Mapped targets and pairings, keyed by the data they came from (a pure cache)."""
-
-    def __init__(self, size: int = 4):
-        self.size = size
-        self.entries: dict = {}
-        self.lock = threading.Lock()  # the viewport and a render thread may share it
-
-    def target(self, source: SplatSet, source_key, target: SplatSet, target_key, relative):
-        key = (source_key, source.count, target_key, relative.tobytes())
-        with self.lock:
-            hit = self.entries.get(key)
-        if hit is None:
-            mapped = map_into(target, relative)
-            hit = (mapped, pair(source.positions, mapped.positions))
-            with self.lock:
-                self.entries[key] = hit
-                while len(self.entries) > self.size:
-                    self.entries.pop(next(iter(self.entries)))
-        return hit
-
-    def clear(self):
-        with self.lock:
-            self.entries.clear()

@@ -20,6 +20,7 @@ import bpy
 
 from ...core import look as core_look
 from ...core.effects import evaluate_stack
+from ...core.effects.morph import MorphCache
 from ...core.scene import RenderItem
 from . import effect_params
 from ..data.pointcloud import (BASE, is_splat_object, plays_sequence, splats_from_pointcloud,
@@ -124,7 +125,7 @@ class BaseCache:
 
 
 _BASE = BaseCache()
-_MORPH = effect_params.MorphCache()
+_MORPH = MorphCache()
 
 
 def base_splats(obj_eval, depsgraph):

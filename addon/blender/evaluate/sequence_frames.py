@@ -1,9 +1,10 @@
 """The splats a sequence object shows at the depsgraph's frame, from disk through a cache.
 
-evaluate.py calls `splats_at(obj_eval, depsgraph)` (or `sequence_frame` for the cache key):
+items.py calls `sequence_frame(obj_eval, depsgraph)`: the frame's splats and cache key, or
 None for an object that is not a sequence. Everything here is owned by one SequenceRuntime
-created on first use and torn down by `shutdown()` (sequence_ops.unregister), which also
-joins the read-ahead thread; nothing is stored on bpy.
+created on first use and torn down by `shutdown()` (this module's unregister), which also
+joins the read-ahead thread; nothing is stored on bpy. This module also owns the load_post
+handler that lets go of the previous file's objects.
 
 Cached frames are shared and read-only (see _load). What is shown is decided synchronously (the mapped frame, or the previous available one when
 its file is missing or unreadable), so it never depends on the read-ahead thread's timing.
@@ -174,12 +175,22 @@ def sequence_frame(obj_eval, depsgraph) -> SequenceFrame | None:
                            settings.cache_budget_mb * MB, settings.read_ahead)
 
 
-def splats_at(obj_eval, depsgraph) -> SplatSet | None:
-    """The base SplatSet of a sequence object at the depsgraph's frame; None if not one."""
-    frame = sequence_frame(obj_eval, depsgraph)
-    return None if frame is None else frame.splats
-
-
 def report_for(obj) -> str:
     """The object's last sequence problem ('' when its frames load fine), for the UI."""
     return "" if _runtime is None else _runtime.reports.get(obj.name_full, "")
+
+
+@bpy.app.handlers.persistent
+def _on_load(*_args):
+    forget_objects()
+
+
+def register():
+    if _on_load not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(_on_load)
+
+
+def unregister():
+    while _on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_on_load)
+    shutdown()

@@ -13,6 +13,7 @@ from ...core.camtrack import read_track
 from ...core.errors import SplatFormatError
 from ..data.capture_camera import add_track_camera
 from ..data.pointcloud import is_splat_object
+from ..registration import classes_and_menus
 
 
 def _reference(context):
@@ -69,11 +70,5 @@ def _menu_import(self, context):
                          text="Splat Camera Track (.json, .ssproj)")
 
 
-def register():
-    bpy.utils.register_class(IMPORT_SCENE_OT_splatline_camera_track)
-    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
-
-
-def unregister():
-    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
-    bpy.utils.unregister_class(IMPORT_SCENE_OT_splatline_camera_track)
+register, unregister = classes_and_menus((IMPORT_SCENE_OT_splatline_camera_track,),
+                                         (("TOPBAR_MT_file_import", _menu_import),))

@@ -7,12 +7,13 @@ import json
 import pathlib
 
 import bpy
-from bpy_extras import anim_utils
 
 from ...core import effect_presets as core
 from ..evaluate import effect_params
+from ..data.animation import action_fcurves, set_interpolation
 from ..data.pointcloud import is_splat_object, read_positions
 from .presets import find_preset, list_presets
+from .reporting import finish_reporting
 
 USER_SUBDIR = "presets/splatline/effects"
 
@@ -97,7 +98,7 @@ def _apply_block(obj, group, path, block: core.Block, frame, context):
             with _where(f"{path}.{prop}"):
                 _assign(group, prop, core.resolve(value, context))
                 obj.keyframe_insert(data_path=f"{path}.{prop}", frame=frame + offset)
-        _set_interpolation(obj, f"{path}.{prop}", block.interpolation)
+        set_interpolation(obj, block.interpolation, f"{path}.{prop}")
 
 
 @contextlib.contextmanager
@@ -115,15 +116,6 @@ def _assign(group, prop, value):
     if not hasattr(group, prop):
         raise ValueError(f"{type(group).__name__} has no property {prop!r}")
     setattr(group, prop, value)
-
-
-def _set_interpolation(obj, data_path, interpolation):
-    anim = obj.animation_data
-    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
-    for curve in bag.fcurves:
-        if curve.data_path == data_path:
-            for point in curve.keyframe_points:
-                point.interpolation = interpolation
 
 
 def user_dir() -> pathlib.Path:
@@ -161,12 +153,8 @@ def _effect_fields(effect) -> dict:
 def _keys_for(obj, prefix, frame) -> dict:
     """{prop: [[offset, value], ...]} for the keyed properties under prefix; vector
     properties are merged across their array indices (keys on the same frames)."""
-    anim = obj.animation_data
-    if anim is None or anim.action is None:
-        return {}
-    bag = anim_utils.action_get_channelbag_for_slot(anim.action, anim.action_slot)
     by_prop: dict[str, dict[float, dict[int, float]]] = {}
-    for curve in (bag.fcurves if bag else []):
+    for curve in action_fcurves(obj):
         prop = curve.data_path[len(prefix):]
         if not curve.data_path.startswith(prefix) or "[" in prop or "." in prop:
             continue
@@ -206,14 +194,14 @@ class SPLATLINE_OT_effect_preset_apply(bpy.types.Operator):
     def execute(self, context):
         obj = _active_splat_object(context)
         others = [o for o in context.selected_objects if o is not obj and is_splat_object(o)]
-        try:
+        frame = context.scene.frame_current
+
+        def apply():
             preset = core.load(find_preset(self.preset, "effects", ".json"))
-            apply_preset(obj, preset, context.scene.frame_current, others[0] if others else None)
-        except (KeyError, core.PresetError) as exc:  # apply_preset turns bpy's errors into these
-            self.report({"ERROR"}, _one_line(exc))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"{preset.label}: added to {obj.name} at frame {context.scene.frame_current}")
-        return {"FINISHED"}
+            apply_preset(obj, preset, frame, others[0] if others else None)
+            return f"{preset.label}: added to {obj.name} at frame {frame}"
+        # apply_preset turns bpy's errors into PresetError
+        return finish_reporting(self, apply, (KeyError, core.PresetError), _one_line)
 
 
 class SPLATLINE_OT_effect_preset_add(bpy.types.Operator):
@@ -237,14 +225,12 @@ class SPLATLINE_OT_effect_preset_add(bpy.types.Operator):
             self.report({"ERROR"}, "an effect preset needs a name")
             return {"CANCELLED"}
         data = capture_preset(obj, context.scene.frame_current, self.name)
-        try:
+
+        def write():
             path = user_dir() / (bpy.path.clean_name(self.name.strip()).lower() + ".json")
             path.write_text(json.dumps(data, indent=1))
-        except OSError as exc:
-            self.report({"ERROR"}, f"cannot save effect preset {self.name!r}: {_os_text(exc)}")
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"saved {path}")
-        return {"FINISHED"}
+            return f"saved {path}"
+        return _on_user_file(self, write, f"save effect preset {self.name!r}")
 
 
 class SPLATLINE_OT_effect_preset_remove(bpy.types.Operator):
@@ -255,18 +241,20 @@ class SPLATLINE_OT_effect_preset_remove(bpy.types.Operator):
     preset: bpy.props.StringProperty(name="Preset")
 
     def execute(self, context):
-        try:
+        def unlink():
             # A bare file stem only: the name must not reach outside the preset folder.
             path = user_dir() / f"{pathlib.Path(self.preset).name}.json"
             if not self.preset or path.stem != self.preset or not path.is_file():
                 self.report({"ERROR"}, f"{self.preset}: not a user preset (bundled presets can't be removed)")
-                return {"CANCELLED"}
+                return None
             path.unlink()
-        except OSError as exc:
-            self.report({"ERROR"}, f"cannot remove effect preset {self.preset!r}: {_os_text(exc)}")
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"removed {path}")
-        return {"FINISHED"}
+            return f"removed {path}"
+        return _on_user_file(self, unlink, f"remove effect preset {self.preset!r}")
+
+
+def _on_user_file(op, action, what: str) -> set:
+    """finish_reporting for a change to the user preset folder (an OSError: cannot `what`)."""
+    return finish_reporting(op, action, OSError, lambda exc: f"cannot {what}: {_os_text(exc)}")
 
 
 class SPLATLINE_MT_effect_presets(bpy.types.Menu):
@@ -317,9 +305,11 @@ def _effects_panel():
     return getattr(bpy.types, "SPLATLINE_PT_effects", None)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     panel = _effects_panel()
     if panel is not None:
         panel.append(_draw_in_effects_panel)
@@ -329,5 +319,4 @@ def unregister():
     panel = _effects_panel()
     if panel is not None:
         panel.remove(_draw_in_effects_panel)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

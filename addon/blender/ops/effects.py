@@ -11,8 +11,7 @@ import bpy
 from bpy.props import EnumProperty
 
 from ..data.pointcloud import is_splat_object
-from ..evaluate import items as evaluate
-from ..evaluate.effect_params import channel_fcurves as _channel_fcurves
+from ..data.animation import channel_fcurves, remove_fcurve
 from ..props.effect import FIELDS, TYPES
 
 _PATH = re.compile(r"^splatline\.effects\[(\d+)\]")
@@ -21,7 +20,7 @@ _PATH = re.compile(r"^splatline\.effects\[(\d+)\]")
 def remap_effect_curves(obj, mapping: dict) -> None:
     """Re-point F-curves of effect i to effect mapping[i] (None: delete the curve)."""
     doomed = []
-    for curve in _channel_fcurves(obj):
+    for curve in channel_fcurves(obj):
         match = _PATH.match(curve.data_path)
         if match is None:
             continue
@@ -34,23 +33,7 @@ def remap_effect_curves(obj, mapping: dict) -> None:
         else:
             curve.data_path = f"splatline.effects[{new}]" + curve.data_path[match.end():]
     for curve in doomed:
-        _remove(obj, curve)
-
-
-def _remove(obj, curve):
-    anim = obj.animation_data
-    if curve in list(anim.drivers):
-        anim.drivers.remove(curve)
-        return
-    if not getattr(anim.action, "is_action_layered", False):
-        anim.action.fcurves.remove(curve)
-        return
-    for layer in anim.action.layers:
-        for strip in layer.strips:
-            bag = strip.channelbag(anim.action_slot)
-            if bag is not None and curve in list(bag.fcurves):
-                bag.fcurves.remove(curve)
-                return
+        remove_fcurve(obj, curve)
 
 
 def _effects(context):
@@ -68,6 +51,21 @@ class _EffectOperator:
         context.object.update_tag(refresh={"TIME"})
         return {"FINISHED"}
 
+    def append(self, context, fill):
+        """A new effect at the end of the stack, filled by fill(effect), made the active one."""
+        settings = context.object.splatline
+        fill(settings.effects.add())
+        settings.active_effect = len(settings.effects) - 1
+        return self.finish(context)
+
+    def restack(self, context, mapping: dict, change, active: int):
+        """Re-point the effects' F-curves (remap_effect_curves' mapping), then change(effects)
+        and make effect `active` the active one."""
+        remap_effect_curves(context.object, mapping)
+        change(context.object.splatline.effects)
+        context.object.splatline.active_effect = active
+        return self.finish(context)
+
 
 class SPLATLINE_OT_effect_add(_EffectOperator, bpy.types.Operator):
     """Add an effect to the bottom of the active splat object's stack"""
@@ -76,12 +74,11 @@ class SPLATLINE_OT_effect_add(_EffectOperator, bpy.types.Operator):
     type: EnumProperty(name="Type", items=TYPES)
 
     def execute(self, context):
-        settings = context.object.splatline
-        effect = settings.effects.add()
+        return self.append(context, self._new)
+
+    def _new(self, effect):
         effect.type = self.type
         effect.name = next(t[1] for t in TYPES if t[0] == self.type)
-        settings.active_effect = len(settings.effects) - 1
-        return self.finish(context)
 
 
 class SPLATLINE_OT_effect_remove(_EffectOperator, bpy.types.Operator):
@@ -95,10 +92,8 @@ class SPLATLINE_OT_effect_remove(_EffectOperator, bpy.types.Operator):
         if not 0 <= index < count:
             return {"CANCELLED"}
         mapping = {i: (None if i == index else i - (i > index)) for i in range(count)}
-        remap_effect_curves(context.object, mapping)
-        settings.effects.remove(index)
-        settings.active_effect = max(0, min(index, len(settings.effects) - 1))
-        return self.finish(context)
+        return self.restack(context, mapping, lambda effects: effects.remove(index),
+                            max(0, min(index, count - 2)))
 
 
 class SPLATLINE_OT_effect_move(_EffectOperator, bpy.types.Operator):
@@ -113,10 +108,8 @@ class SPLATLINE_OT_effect_move(_EffectOperator, bpy.types.Operator):
         other = index - 1 if self.direction == "UP" else index + 1
         if not (0 <= index < len(settings.effects) and 0 <= other < len(settings.effects)):
             return {"CANCELLED"}
-        remap_effect_curves(context.object, {index: other, other: index})
-        settings.effects.move(index, other)
-        settings.active_effect = other
-        return self.finish(context)
+        return self.restack(context, {index: other, other: index},
+                            lambda effects: effects.move(index, other), other)
 
 
 class SPLATLINE_OT_effect_duplicate(_EffectOperator, bpy.types.Operator):
@@ -129,13 +122,13 @@ class SPLATLINE_OT_effect_duplicate(_EffectOperator, bpy.types.Operator):
         if not 0 <= settings.active_effect < len(settings.effects):
             return {"CANCELLED"}
         source = settings.effects[settings.active_effect]
-        copy = settings.effects.add()
-        for prop in source.bl_rna.properties:
-            if prop.identifier != "rna_type" and not prop.is_readonly:
-                setattr(copy, prop.identifier, getattr(source, prop.identifier))
-        copy.name = source.name + ".copy"
-        settings.active_effect = len(settings.effects) - 1
-        return self.finish(context)
+
+        def copy_of_source(copy):
+            for prop in source.bl_rna.properties:
+                if prop.identifier != "rna_type" and not prop.is_readonly:
+                    setattr(copy, prop.identifier, getattr(source, prop.identifier))
+            copy.name = source.name + ".copy"
+        return self.append(context, copy_of_source)
 
 
 class SPLATLINE_OT_effect_add_gizmo(_EffectOperator, bpy.types.Operator):

@@ -10,6 +10,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper, poll_file_object_dro
 from ...core.errors import SplatFormatError
 from ..data.files import export_object, import_file_with_report, object_axes
 from ..data.pointcloud import is_splat_object
+from ..registration import classes_and_menus
 
 _AXES_ENUM = [
     ("AUTO", "From File", "Y down, z forward for .ply, .splat, .spz and .sog (the .spz frame splat-transform "
@@ -200,15 +201,5 @@ def _menu_export(self, context):
 _CLASSES = (IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians, IO_FH_splatline_gaussians)
 
 
-def register():
-    for cls in _CLASSES:
-        bpy.utils.register_class(cls)
-    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
-    bpy.types.TOPBAR_MT_file_export.append(_menu_export)
-
-
-def unregister():
-    bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
-    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
-    for cls in reversed(_CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = classes_and_menus(
+    _CLASSES, (("TOPBAR_MT_file_import", _menu_import), ("TOPBAR_MT_file_export", _menu_export)))

@@ -1,5 +1,6 @@
 """File > Import > Splat Sequence, File > Export > Evaluated Splats, the bake operator and
-the Object-properties panel of a sequence. unregister() also joins the read-ahead thread."""
+the Object-properties panel of a sequence (the frame cache and its handlers are
+evaluate/sequence_frames.py's)."""
 from __future__ import annotations
 
 import os
@@ -15,6 +16,8 @@ from ..data.sequences import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, import_sequ
 from ..data.pointcloud import is_splat_object
 from ..evaluate.bake import bake_frames, export_evaluated
 from ..props.sequence import _LOOP_ITEMS
+from ..registration import classes_and_menus
+from .reporting import finish_reporting
 
 
 def _splat_object(context):
@@ -42,15 +45,13 @@ class IMPORT_SCENE_OT_splatline_sequence(bpy.types.Operator, ImportHelper):
     def execute(self, context):
         # a chosen file names the pattern; a folder alone picks its largest numbered group
         path = self.filepath if os.path.isfile(self.filepath) else (self.directory or self.filepath)
-        try:
+
+        def load():
             obj = import_sequence(context, path, align=self.align, loop_mode=self.loop_mode,
                                   set_scene_range=self.set_scene_range)
-        except SplatFormatError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        seq = obj.splatline.sequence
-        self.report({"INFO"}, f"{obj.name}: {seq.frame_count} frames from {seq.directory}")
-        return {"FINISHED"}
+            seq = obj.splatline.sequence
+            return f"{obj.name}: {seq.frame_count} frames from {seq.directory}"
+        return finish_reporting(self, load, SplatFormatError)
 
 
 class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
@@ -72,13 +73,11 @@ class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
         path = self.filepath
         if os.path.splitext(path)[1].lower() not in (".ply", ".splat"):
             path += ".ply"
-        try:
+
+        def write():
             export_evaluated(_splat_object(context), context.evaluated_depsgraph_get(), path)
-        except SplatFormatError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"wrote {path}")
-        return {"FINISHED"}
+            return f"wrote {path}"
+        return finish_reporting(self, write, SplatFormatError)
 
 
 class SPLATLINE_OT_bake_sequence(bpy.types.Operator):
@@ -241,11 +240,6 @@ class _SaveRemap:
         self.previous = {}
 
 
-@bpy.app.handlers.persistent
-def _on_load(*_args):
-    sequence_runtime.forget_objects()
-
-
 _save_remap = None
 
 
@@ -253,16 +247,16 @@ _CLASSES = (IMPORT_SCENE_OT_splatline_sequence, EXPORT_SCENE_OT_splatline_evalua
             SPLATLINE_OT_bake_sequence, OBJECT_PT_splatline_sequence)
 
 
+_register_classes, _unregister_classes = classes_and_menus(
+    _CLASSES, (("TOPBAR_MT_file_import", _menu_import), ("TOPBAR_MT_file_export", _menu_export)))
+
+
 def register():
     global _save_remap
-    for cls in _CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     _save_remap = _SaveRemap()
     bpy.app.handlers.save_pre.append(_save_remap.pre)
     bpy.app.handlers.save_post.append(_save_remap.post)
-    bpy.app.handlers.load_post.append(_on_load)
-    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
-    bpy.types.TOPBAR_MT_file_export.append(_menu_export)
 
 
 def unregister():
@@ -273,10 +267,4 @@ def unregister():
             if fn in handlers:
                 handlers.remove(fn)
         _save_remap = None
-    while _on_load in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.remove(_on_load)
-    bpy.types.TOPBAR_MT_file_export.remove(_menu_export)
-    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
-    for cls in reversed(_CLASSES):
-        bpy.utils.unregister_class(cls)
-    sequence_runtime.shutdown()
+    _unregister_classes()

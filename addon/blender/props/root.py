@@ -22,12 +22,13 @@ class SplatlineSceneSettings(bpy.types.PropertyGroup):
     render: bpy.props.PointerProperty(type=render_props.RenderSettings)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(
+    tuple(cls for module in _SUBMODULES for cls in module.classes)
+    + (SplatlineObjectSettings, SplatlineSceneSettings))
+
+
 def register():
-    for module in _SUBMODULES:
-        for cls in module.classes:
-            bpy.utils.register_class(cls)
-    bpy.utils.register_class(SplatlineObjectSettings)
-    bpy.utils.register_class(SplatlineSceneSettings)
+    _register_classes()
     bpy.types.Object.splatline = bpy.props.PointerProperty(type=SplatlineObjectSettings)
     bpy.types.Scene.splatline = bpy.props.PointerProperty(type=SplatlineSceneSettings)
 
@@ -35,8 +36,4 @@ def register():
 def unregister():
     del bpy.types.Scene.splatline
     del bpy.types.Object.splatline
-    bpy.utils.unregister_class(SplatlineSceneSettings)
-    bpy.utils.unregister_class(SplatlineObjectSettings)
-    for module in reversed(_SUBMODULES):
-        for cls in reversed(module.classes):
-            bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -4,7 +4,7 @@ Blender makes a new engine instance for every frame, so the offscreen renderer (
 GL context, worker thread and GPU buffers) lives in a module-level holder instead:
 created on the first frame of a render job, reused by the following frames, and
 closed when the job completes or is cancelled, and on unregister.
-Headless Ctrl+C stops a job between frames (render_stop.py).
+Headless Ctrl+C stops a job between frames (core/stop.py).
 """
 from __future__ import annotations
 
@@ -15,15 +15,15 @@ from dataclasses import dataclass
 import bpy
 
 from ...core import shutter
+from ...core.colorspace import composite_over, premultiplied_srgb_to_linear as to_scene_linear
 from ...core.errors import SplatFormatError
+from ...core.stop import SigintGuard, stop_requested
 from . import motion_blur
 from . import paths as render_paths
 from .camera import camera_from_blender
 from ..compat import world_uses_nodes
 from ..evaluate.items import collect_items
-from .film import (blender_depth, bottom_up, composite_over, region_camera, render_region,
-                   to_scene_linear)
-from .stop import SigintGuard, stop_requested
+from .film import blender_depth, bottom_up, region_camera, render_region
 
 
 class _RendererHolder:
@@ -299,8 +299,11 @@ _JOB_HANDLERS = (("render_init", _job_started), ("render_complete", _job_finishe
                  ("render_cancel", _job_finished))
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((SplatlineRenderEngine,))
+
+
 def register():
-    bpy.utils.register_class(SplatlineRenderEngine)
+    _register_classes()
     for name, fn in _JOB_HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
 
@@ -312,4 +315,4 @@ def unregister():
             handlers.remove(fn)
     _HOLDER.close()
     _SIGINT.job_ended()
-    bpy.utils.unregister_class(SplatlineRenderEngine)
+    _unregister_classes()

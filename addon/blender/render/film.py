@@ -1,8 +1,9 @@
-"""From a renderer's output to what Blender's render result wants (pure numpy, no bpy).
+"""From a renderer's output to the shape of Blender's render result (pure numpy, no bpy).
 
 Renderers give premultiplied display-referred sRGB, top-down rows (core/scene.py).
-Blender's render result holds premultiplied scene-linear RGBA, bottom-up rows, and a
-Depth pass. The conversion happens here, once, for every renderer.
+Blender's render result holds premultiplied scene-linear RGBA (the colour conversion is
+core/colorspace.premultiplied_srgb_to_linear), bottom-up rows, a Depth pass with its own
+background value, and only the region (border) Blender asks for: those conventions are here.
 """
 from __future__ import annotations
 
@@ -12,40 +13,8 @@ import numpy as np
 
 from ...core.camera import Camera
 
-_SRGB_KNEE = 0.04045  # IEC 61966-2-1: linear segment below, power curve above
 # Cycles writes this for pixels that never hit anything; compositors expect a finite value.
 BACKGROUND_DEPTH = 1e10
-
-
-def to_scene_linear(rgba: np.ndarray) -> np.ndarray:
-    """Premultiplied sRGB RGBA -> premultiplied scene-linear RGBA (float32).
-
-    The transfer curve applies to straight colour, so un-premultiply first; only
-    covered pixels are converted, and alpha-0 pixels stay exactly 0. float32 math
-    (3x faster than float64 at 960x540): within 1e-6 relative of the float64 curve in
-    core/colorspace.py, far below an 8-bit step or a half-float EXR's precision.
-    """
-    rgba = np.asarray(rgba, np.float32)
-    out = np.zeros(rgba.shape, np.float32)
-    alpha = rgba[..., 3]
-    covered = alpha > 0
-    a = alpha[covered][:, None]
-    c = rgba[covered, :3] / a
-    linear = c * np.float32(1.0 / 12.92)
-    power = c > np.float32(_SRGB_KNEE)
-    linear[power] = ((c[power] + np.float32(0.055)) * np.float32(1.0 / 1.055)) ** np.float32(2.4)
-    out[covered, :3] = linear * a
-    out[..., 3] = alpha
-    return out
-
-
-def composite_over(rgba: np.ndarray, background_rgb) -> np.ndarray:
-    """Premultiplied rgba over an opaque scene-linear colour (the world): alpha becomes 1."""
-    out = np.array(rgba, np.float32, copy=True)
-    bg = np.asarray(background_rgb, np.float32)[:3]
-    out[..., :3] += (1.0 - out[..., 3:4]) * bg
-    out[..., 3] = 1.0
-    return out
 
 
 def blender_depth(depth: np.ndarray) -> np.ndarray:

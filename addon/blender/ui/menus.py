@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import bpy
 
+from ..registration import classes_and_menus
+
 
 class SPLATLINE_MT_object(bpy.types.Menu):
     bl_idname = "SPLATLINE_MT_object"
@@ -30,11 +32,5 @@ def _draw_in_object_menu(self, context):
     self.layout.menu(SPLATLINE_MT_object.bl_idname)
 
 
-def register():
-    bpy.utils.register_class(SPLATLINE_MT_object)
-    bpy.types.VIEW3D_MT_object.append(_draw_in_object_menu)
-
-
-def unregister():
-    bpy.types.VIEW3D_MT_object.remove(_draw_in_object_menu)
-    bpy.utils.unregister_class(SPLATLINE_MT_object)
+register, unregister = classes_and_menus((SPLATLINE_MT_object,),
+                                         (("VIEW3D_MT_object", _draw_in_object_menu),))

@@ -106,9 +106,11 @@ def _builtin_panels():
             yield panel
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     # The one place Splatline edits classes it does not own: Blender's panels read
     # COMPAT_ENGINES at draw time, so adding ENGINE to the set is how a custom engine gets them.
     # Only panels that did not list ENGINE already are recorded, so unregister undoes exactly
@@ -122,5 +124,4 @@ def register():
 def unregister():
     while _patched:
         _patched.pop().COMPAT_ENGINES.discard(ENGINE)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -61,6 +61,25 @@ def local_columns(positions: np.ndarray, frame: np.ndarray, axes=(0, 1, 2)) -> l
     return out
 
 
+def field_values(positions: np.ndarray, frame: np.ndarray, kind: str, noise=None) -> np.ndarray:
+    """A scalar field per splat (a fresh float32 array), measured in the field's frame:
+    HEIGHT (local z), DISTANCE (from the frame's origin) or NOISE (noise: the memoized
+    value noise of these splats, mapped from [-1, 1] to [0, 1])."""
+    if kind == "HEIGHT":
+        return local_columns(positions, frame, (2,))[0]
+    if kind == "NOISE":
+        value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
+        value += F32(0.5)
+        return value
+    if kind != "DISTANCE":
+        raise ValueError(f"unknown field {kind!r}")
+    x, y, z = local_columns(positions, frame)
+    x *= x
+    x += y * y
+    x += z * z
+    return np.sqrt(x, out=x)
+
+
 BLOCK = 1 << 16  # rows per block: a block's temporaries stay in cache
 
 
@@ -136,30 +155,6 @@ def join(cols) -> np.ndarray:
     return np.stack(cols, axis=1).astype(F32, copy=False)
 
 
-def quat_multiply(a, b) -> np.ndarray:
-    """Hamilton product a*b (applies b, then a) of wxyz quaternions given as (N, 4) arrays
-    or lists of 4 columns; returns (N, 4)."""
-    aw, ax, ay, az = a if isinstance(a, list) else split(a)
-    bw, bx, by, bz = b if isinstance(b, list) else split(b)
-    w = aw * bw
-    w -= ax * bx
-    w -= ay * by
-    w -= az * bz
-    x = aw * bx
-    x += ax * bw
-    x += ay * bz
-    x -= az * by
-    y = aw * by
-    y -= ax * bz
-    y += ay * bw
-    y += az * bx
-    z = aw * bz
-    z += ax * by
-    z -= ay * bx
-    z += az * bw
-    return join([w, x, y, z])
-
-
 def rotate_quats_about(axis, cos_half: np.ndarray, sin_half: np.ndarray, q) -> np.ndarray:
     """(cos_half, sin_half * axis) * q for one constant unit axis (3,): the product with a
     pure quaternion of fixed axis is a fixed linear map, so zero axis terms cost nothing."""
@@ -189,6 +184,12 @@ def rotate_quats_about(axis, cos_half: np.ndarray, sin_half: np.ndarray, q) -> n
             col += extra
         out.append(col)
     return join(out)
+
+
+def field_blocks(positions: np.ndarray, frame: np.ndarray, kind: str, noise=None):
+    """(rows, field_values of those rows), a block of rows at a time."""
+    for part in blocks(len(positions)):
+        yield part, field_values(positions[part], frame, kind, None if noise is None else noise[part])
 
 
 def per_splat_random(n: int, seed: int, salt: int) -> np.ndarray:

@@ -12,8 +12,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .. import quaternion
 from .common import (F32, EffectParams, blocks, frame_axis, frame_origin, join,
-                     per_splat_random, quat_multiply, split, unit_columns)
+                     per_splat_random, split, unit_columns)
 
 MODES = ("CENTER", "DIRECTION")
 
@@ -82,7 +83,7 @@ def apply(splats, p: Explode, time: float = 0.0, rest=None):
         if rotations is not None:
             turn = [np.full(part.stop - part.start, np.cos(half), F32)]
             turn += [axis * F32(np.sin(half)) for axis in spin_axes(normals[:, part])]
-            rotations[part] = quat_multiply(turn, splats.rotations[part])
+            rotations[part] = quaternion.multiply(turn, splats.rotations[part])
     changes = {"positions": positions}
     if rotations is not None:
         changes["rotations"] = rotations

@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, blocks, local_columns
-from .noise import field as noise_field
+from .common import F32, EffectParams, field_blocks
+from .noise import rest_field
 
 FIELDS = ("HEIGHT", "DISTANCE", "NOISE")
 MODES = ("MIX", "MULTIPLY", "ADD")
@@ -29,23 +29,6 @@ class Grade(EffectParams):
     mode: str = "MIX"
     frequency: float = 1.0
     seed: int = 0
-
-
-def field_values(positions: np.ndarray, p: Grade, noise=None) -> np.ndarray:
-    """Field value per splat (fresh array); noise: the memoized noise of these splats."""
-    if p.field == "HEIGHT":
-        return local_columns(positions, p.frame, (2,))[0]
-    if p.field == "NOISE":
-        value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
-        value += F32(0.5)
-        return value
-    x, y, z = local_columns(positions, p.frame)
-    if p.field == "DISTANCE":
-        x *= x
-        x += y * y
-        x += z * z
-        return np.sqrt(x, out=x)
-    raise ValueError(f"Grade field {p.field!r} is not one of {FIELDS}")
 
 
 def gradient(x: np.ndarray, stops) -> list[np.ndarray]:
@@ -71,15 +54,12 @@ def apply(splats, p: Grade, time: float = 0.0, rest=None):
         return splats
     if p.mode not in MODES:
         raise ValueError(f"Grade mode {p.mode!r} is not one of {MODES}")
-    noise = None
-    if p.field == "NOISE":
-        centres = splats.positions if rest is None else rest
-        noise = noise_field(centres, p.frame, p.frequency, p.seed)[0]
+    if p.field not in FIELDS:
+        raise ValueError(f"Grade field {p.field!r} is not one of {FIELDS}")
+    noise = rest_field(splats, rest, p) if p.field == "NOISE" else None
     dc = np.empty_like(splats.sh_dc)
-    for part in blocks(splats.count):
-        _grade_block(splats.sh_dc[part], field_values(splats.positions[part], p,
-                                                       None if noise is None else noise[part]),
-                     p, dc[part])
+    for part, x in field_blocks(splats.positions, p.frame, p.field, noise):
+        _grade_block(splats.sh_dc[part], x, p, dc[part])
     return replace(splats, sh_dc=dc)
 
 

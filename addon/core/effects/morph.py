@@ -11,10 +11,12 @@ Position, scale, opacity and SH are blended linearly, rotation by slerp (shortes
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..reframe import map_into
 from ..splats import SplatSet, sh_coeff_count
 from .common import F32, EffectParams, join, split
 
@@ -157,3 +159,31 @@ def apply(splats: SplatSet, p: Morph, time: float = 0.0, rest=None) -> SplatSet:
             or len(pairing.target) + len(pairing.target_only) != p.target.count):
         pairing = pair(splats.positions, p.target.positions)
     return blend(splats, p.target, pairing, p.amount)
+
+
+class MorphCache:
+    """Targets mapped into their source's space, with their pairings, keyed by the data they
+    came from (a pure cache: its owner clears it when that data may change)."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self.entries: dict = {}
+        self.lock = threading.Lock()  # the viewport and a render thread may share it
+
+    def target(self, source: SplatSet, source_key, target: SplatSet, target_key, relative):
+        """(target mapped by `relative` (4x4 source <- target), pair(source, mapped))."""
+        key = (source_key, source.count, target_key, relative.tobytes())
+        with self.lock:
+            hit = self.entries.get(key)
+        if hit is None:
+            mapped = map_into(target, relative)
+            hit = (mapped, pair(source.positions, mapped.positions))
+            with self.lock:
+                self.entries[key] = hit
+                while len(self.entries) > self.size:
+                    self.entries.pop(next(iter(self.entries)))
+        return hit
+
+    def clear(self):
+        with self.lock:
+            self.entries.clear()

@@ -151,6 +151,12 @@ def evaluate_field(positions, frame, frequency, seed, channels, layer=0) -> list
 FIELDS = FieldCache()
 
 
+def rest_field(splats, rest, p) -> np.ndarray:
+    """The one-channel noise field of effect params p (frame, frequency, seed) at the splats'
+    rest centres (rest: None where the stack has none for these splats: their own)."""
+    return field(splats.positions if rest is None else rest, p.frame, p.frequency, p.seed)[0]
+
+
 def field(positions, frame, frequency, seed, channels=1, layer=0) -> list[np.ndarray]:
     """Memoized noise at splat centres: read-only (N,) float32 arrays, one per channel."""
     return FIELDS.get(positions, frame, frequency, seed, channels, layer)

@@ -14,10 +14,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, add_rows, blocks, local_columns, scale_rows, smoothstep01
-from .noise import field as noise_field
+from .common import F32, EffectParams, add_rows, field_blocks, scale_rows, smoothstep01
+from .noise import rest_field
 
 SHAPES = ("PLANE", "SPHERE", "NOISE")
+_FIELD = {"PLANE": "HEIGHT", "SPHERE": "DISTANCE", "NOISE": "NOISE"}  # common.field_values
 
 
 @dataclass
@@ -31,23 +32,6 @@ class Reveal(EffectParams):
     glow_strength: float = 0.0
     frequency: float = 1.0
     seed: int = 0
-
-
-def field_values(positions: np.ndarray, p: Reveal, noise=None) -> np.ndarray:
-    """Field value per splat (fresh array); noise: the memoized noise of these splats."""
-    if p.shape == "PLANE":
-        return local_columns(positions, p.frame, (2,))[0]
-    if p.shape == "NOISE":
-        value = noise * F32(0.5)  # a fresh array: the memoized noise is read-only
-        value += F32(0.5)
-        return value
-    x, y, z = local_columns(positions, p.frame)
-    if p.shape == "SPHERE":
-        x *= x
-        x += y * y
-        x += z * z
-        return np.sqrt(x, out=x)
-    raise ValueError(f"Reveal shape {p.shape!r} is not one of {SHAPES}")
 
 
 def edge_position(f: np.ndarray, p: Reveal) -> np.ndarray:
@@ -64,16 +48,14 @@ def edge_position(f: np.ndarray, p: Reveal) -> np.ndarray:
 def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if not p.active or splats.count == 0:
         return splats
-    noise = None
-    if p.shape == "NOISE":
-        centres = splats.positions if rest is None else rest
-        noise = noise_field(centres, p.frame, p.frequency, p.seed)[0]
+    if p.shape not in _FIELD:
+        raise ValueError(f"Reveal shape {p.shape!r} is not one of {SHAPES}")
+    noise = rest_field(splats, rest, p) if p.shape == "NOISE" else None
     opacities = np.empty_like(splats.opacities)
     scales = np.empty_like(splats.scales) if p.shrink > 0.0 else None
     sh_dc = np.empty_like(splats.sh_dc) if p.glow_strength > 0.0 else None
-    for part in blocks(splats.count):
-        s = edge_position(field_values(splats.positions[part], p,
-                                       None if noise is None else noise[part]), p)
+    for part, f in field_blocks(splats.positions, p.frame, _FIELD[p.shape], noise):
+        s = edge_position(f, p)
         if sh_dc is not None:
             glow = s * (F32(1.0) - s)
             glow *= F32(4.0 * p.amount * p.glow_strength / C0)

@@ -12,17 +12,33 @@ from ..splats import SplatSet
 from .ply import encode_vertices
 
 
-def random_splats(n: int, degree: int = 3, seed: int = 0) -> SplatSet:
-    """Plausible capture-like values: positions in a few metres, small scales."""
+def random_splats(n: int, degree: int = 3, seed: int = 0, *, centre=(0.0, 0.0, 0.0),
+                  spread: float = 2.0, box: bool = False, log_scale=(-6.0, -1.0), opacity=None,
+                  dc: float = 1.0, rest: float = 0.1) -> SplatSet:
+    """Random splats, a pure function of the arguments: the one generator of the tests and
+    benches. The defaults are capture-like: positions in a few metres, small scales.
+
+    spread: the centres' standard deviation about `centre` (box: the half-width of a
+    uniform box instead). log_scale: (low, high) draws log scales uniformly in that range;
+    a number draws them normally about it (sd 0.5). opacity: (low, high) draws them
+    uniformly; None as a logistic of N(0, 2) (most near 0 or 1, as trained captures have
+    them). dc, rest: standard deviations of the SH DC and of the higher coefficients."""
     rng = np.random.default_rng(seed)
     s = SplatSet.allocate(n, degree)
-    s.positions[:] = rng.normal(0.0, 2.0, (n, 3))
-    s.scales[:] = np.exp(rng.uniform(-6.0, -1.0, (n, 3)))
+    positions = rng.uniform(-spread, spread, (n, 3)) if box else rng.normal(0.0, spread, (n, 3))
+    s.positions[:] = positions + np.asarray(centre, np.float64)
+    if np.ndim(log_scale):
+        s.scales[:] = np.exp(rng.uniform(log_scale[0], log_scale[1], (n, 3)))
+    else:
+        s.scales[:] = np.exp(rng.normal(log_scale, 0.5, (n, 3)))
     q = rng.normal(size=(n, 4))
     s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = 1.0 / (1.0 + np.exp(-rng.normal(0.0, 2.0, n)))
-    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
-    s.sh_rest[:] = rng.normal(0.0, 0.1, s.sh_rest.shape)
+    if opacity is None:
+        s.opacities[:] = 1.0 / (1.0 + np.exp(-rng.normal(0.0, 2.0, n)))
+    else:
+        s.opacities[:] = rng.uniform(opacity[0], opacity[1], n)
+    s.sh_dc[:] = rng.normal(0.0, dc, (n, 3))
+    s.sh_rest[:] = rng.normal(0.0, rest, s.sh_rest.shape)
     return s
 
 

@@ -135,7 +135,7 @@ def test_engine_renders_the_feature_as_the_reference(bpy_empty, tmp_path, featur
     bpy = bpy_empty
     from addon.blender.evaluate.items import collect_items
     from addon.blender.render.camera import camera_from_blender
-    from addon.blender.render.film import to_scene_linear
+    from addon.core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 
     _cloud(bpy)
     scene = setup_render(bpy, 128, 64)

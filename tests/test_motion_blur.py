@@ -77,7 +77,7 @@ def _fcurves(obj):
 def _reference_film(bpy, scene, frame, subframe):
     from addon.blender.evaluate.items import collect_items
     from addon.blender.render.camera import camera_from_blender
-    from addon.blender.render.film import to_scene_linear
+    from addon.core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 
     scene.frame_set(frame, subframe=subframe)
     depsgraph = bpy.context.evaluated_depsgraph_get()

@@ -11,7 +11,9 @@ from __future__ import annotations
 import argparse
 import os
 import pathlib
+import shutil
 import statistics
+import subprocess
 import tempfile
 import time
 import tracemalloc
@@ -23,6 +25,23 @@ from addon.core.formats.ply import write_ply
 from addon.core.formats.synth import random_splats
 
 TESTDATA = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "testdata"
+PEER_ENV = "SPLATLINE_SPLAT_TRANSFORM"
+
+
+def splat_transform_command() -> list | None:
+    """The PlayCanvas splat-transform command line to run, or None when it is not installed:
+    $SPLATLINE_SPLAT_TRANSFORM (a path to its executable), else `splat-transform` on PATH.
+    It is an outside tool (npm @playcanvas/splat-transform) used only to cross-check and
+    compare against; Splatline never needs it."""
+    exe = os.environ.get(PEER_ENV) or shutil.which("splat-transform")
+    return [exe] if exe and os.access(exe, os.X_OK) else None
+
+
+def run_splat_transform(cmd: list, *args) -> None:
+    """Run splat-transform quietly, overwriting outputs; RuntimeError with its stderr on failure."""
+    proc = subprocess.run([*cmd, "-w", "-q", *map(str, args)], capture_output=True, text=True)
+    if proc.returncode:
+        raise RuntimeError(f"splat-transform {' '.join(map(str, args))} failed: {proc.stderr[-2000:]}")
 
 
 def timed(fn, runs: int):

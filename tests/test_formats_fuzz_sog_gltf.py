@@ -106,10 +106,11 @@ def _members(path) -> dict:
         return {name: z.read(name) for name in z.namelist()}
 
 
-def _zip(members: dict, method=zipfile.ZIP_STORED) -> bytes:
+def _zip(members: dict, deflated=()) -> bytes:
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
         for name, data in members.items():
+            method = zipfile.ZIP_DEFLATED if name in deflated else zipfile.ZIP_STORED
             z.writestr(zipfile.ZipInfo(name, (1980, 1, 1, 0, 0, 0)), data, method)
     return buf.getvalue()
 
@@ -148,17 +149,7 @@ def bomb_zips(seed: bytes) -> list:
     """The seed with one member (meta.json or an image) replaced by a deflate bomb: 64 MiB
     of zeros in about 64 KB. Built once per member name (compressing is the slow part)."""
     members = _members(io.BytesIO(seed))
-    out = []
-    for target in members:
-        bombed = dict(members)
-        bombed[target] = bytes(64 << 20)
-        buf = io.BytesIO()
-        with zipfile.ZipFile(buf, "w") as z:
-            for name, data in bombed.items():
-                method = zipfile.ZIP_DEFLATED if name == target else zipfile.ZIP_STORED
-                z.writestr(zipfile.ZipInfo(name, (1980, 1, 1, 0, 0, 0)), data, method)
-        out.append(buf.getvalue())
-    return out
+    return [_zip({**members, target: bytes(64 << 20)}, deflated=(target,)) for target in members]
 
 
 def _patch_central(data: bytes, rng, field: str) -> bytes:

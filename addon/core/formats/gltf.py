@@ -155,11 +155,18 @@ class _Buffers:
             raise SplatFormatError(self.path, f"buffers[{index}] data URI is not valid base64") from None
 
     def _file(self, index, name, length):
+        if not name:
+            raise SplatFormatError(self.path, f"buffers[{index}].uri is empty")
         if os.path.isabs(name) or ".." in name.replace("\\", "/").split("/") or ":" in name:
             raise SplatFormatError(self.path, f"buffers[{index}].uri {name!r} leaves the glTF's folder")
         local = os.path.join(os.path.dirname(os.fspath(self.path)), name)
-        if file_size(local) < length:
-            raise SplatFormatError(local, f"holds fewer than the {length} bytes buffers[{index}] declares")
+        try:  # the error names the glTF, the file the user opened, and then its buffer file
+            size = file_size(local)
+        except SplatFormatError as exc:
+            raise SplatFormatError(self.path, f"buffers[{index}] file {name}: {exc.reason}") from None
+        if size < length:
+            raise SplatFormatError(self.path, f"buffers[{index}] file {name} holds fewer than the "
+                                              f"{length} bytes it declares")
         with open(local, "rb") as f:
             return f.read(length)
 
@@ -170,7 +177,7 @@ def _accessor(path, doc, buffers, index, name, width, count=None) -> np.ndarray:
     acc = _item(path, doc, "accessors", index, name)
     ctype, kind = acc.get("componentType"), acc.get("type")
     allowed = ALLOWED.get(name, (5126,))
-    if ctype not in allowed or WIDTH.get(kind) != width:
+    if ctype not in allowed or not isinstance(kind, str) or WIDTH.get(kind) != width:
         raise SplatFormatError(path, f"{what} is {kind} of component type {ctype}; expected "
                                      f"{width}-wide of {allowed}")
     if "sparse" in acc or "bufferView" not in acc:
@@ -229,7 +236,8 @@ def _check_nodes(path, doc, meshes) -> None:
         if not isinstance(node, dict):
             continue
         moved = any(k in node for k in ("matrix", "translation", "rotation", "scale"))
-        if moved and (node.get("mesh") in meshes or node.get("children")):
+        mesh = node.get("mesh")
+        if moved and ((isinstance(mesh, int) and mesh in meshes) or node.get("children")):
             raise SplatFormatError(path, f"nodes[{i}] has a transform; splat glTFs with node "
                                          "transforms are not supported yet")
 
@@ -270,7 +278,9 @@ def _read_primitive(path, doc, buffers, prim, max_degree) -> SplatSet:
     xyzw = get(f"{EXT}:ROTATION", 4, n)
     s.rotations = normalize_quats_(np.ascontiguousarray(xyzw[:, [3, 0, 1, 2]]))
     s.scales = get(f"{EXT}:SCALE", 3, n)
-    s.opacities = np.ascontiguousarray(get(f"{EXT}:OPACITY", 1, n)[:, 0])
+    # the extension calls opacity outside [0, 1] invalid: clamp to the nearest valid value
+    # (NaN stays NaN, for the bad-value policy to handle)
+    s.opacities = np.clip(get(f"{EXT}:OPACITY", 1, n)[:, 0], 0.0, 1.0)
     s.sh_dc = get(f"{EXT}:SH_DEGREE_0_COEF_0", 3, n)
     degree = min(_sh_degree(path, attrs), max_degree)
     names = [f"{EXT}:SH_DEGREE_{d}_COEF_{i}" for d in range(1, degree + 1) for i in range(2 * d + 1)]

@@ -28,11 +28,12 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count
-from ._common import check_budget, file_size
+from ._common import check_budget, file_size, normalize_quats_
 from .webp import read_rgba
 
 MAX_SPLATS = 1 << 28          # WebP's 16383 x 16383 texel ceiling
-MAX_META = 64 << 20           # meta.json holds codebooks: tens of KB in practice
+MAX_META = 1 << 20            # meta.json holds four 256-entry codebooks: ~14 KB in practice;
+                              # more is a bomb (a deflated 60 MiB one was inflated whole)
 SPLATS_PER_BYTE = 4           # real SOGs spend > 10 bytes a splat; a bomb claims far more
 DEFLATE_RATIO = 1032          # the most deflate can expand
 IMAGES = ("means_l", "means_u", "quats", "scales", "sh0")
@@ -205,7 +206,9 @@ def _rotations(px: np.ndarray) -> np.ndarray:
         stored = np.take_along_axis(three, src[:, None], axis=1)[:, 0]
         wxyz[:, j] = np.where(dropped == j, largest, stored)
     wxyz[~valid] = (1.0, 0.0, 0.0, 0.0)
-    return wxyz
+    # three stored components whose squares sum past 1 leave the largest at 0 and |q| > 1
+    # (up to sqrt(1.5)): normalise those; unit rows are left bit for bit as decoded
+    return normalize_quats_(wxyz)
 
 
 def _lookup(files, name, codebook: np.ndarray, idx: np.ndarray) -> np.ndarray:

@@ -55,11 +55,6 @@ class Camera:
         """Camera centre in world space (float64)."""
         return self.camera_to_world[:3, 3].copy()
 
-    @property
-    def tan_half_fov(self) -> tuple[float, float]:
-        """tan of half the horizontal and vertical field of view (perspective)."""
-        return self.width / (2.0 * self.fx), self.height / (2.0 * self.fy)
-
     def project(self, points_world: np.ndarray) -> np.ndarray:
         """(N, 3) world points -> (N, 3) pixel u, v and depth, float64: camera-space
         depth (-z), or for an equirect camera the distance."""

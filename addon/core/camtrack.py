@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import SplatFormatError
+from .quaternion import to_matrix
 
 PLY_TO_PLAYCANVAS = np.diag([-1.0, -1.0, 1.0, 1.0])  # Rz(180): capture RDF -> PlayCanvas world
 FOV_AUTO, FOV_VERTICAL = "AUTO", "VERTICAL"
@@ -203,13 +204,10 @@ def _document_transform(data) -> np.ndarray:
 
 
 def _quat_matrix(w, x, y, z) -> np.ndarray:
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    if not math.isfinite(n) or n < 1e-12:
+    r, ok = to_matrix(np.array([[w, x, y, z]], np.float64))
+    if not ok[0] or np.linalg.norm([w, x, y, z]) < 1e-12:
         raise ValueError("splats[0].rotation: not a rotation quaternion")
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return r[0]
 
 
 def _from_frames(data) -> CameraTrack:

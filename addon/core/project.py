@@ -35,6 +35,7 @@ import numpy as np
 
 from . import dof, equirect
 from .camera import Camera
+from .quaternion import to_matrix as quat_to_matrix
 from .scene import RenderItem
 from .sh import sh_to_rgb
 
@@ -63,27 +64,6 @@ class Projected:
         return int(self.valid.shape[0])
 
 
-def quat_to_matrix(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 4) wxyz -> (N, 3, 3) rotations of the normalised quaternions, and a mask
-    of the usable ones (non-zero, finite norm)."""
-    q = np.asarray(q, np.float64)
-    norm = np.linalg.norm(q, axis=1)
-    ok = np.isfinite(norm) & (norm > 0)
-    q = q / np.where(ok, norm, 1.0)[:, None]
-    w, x, y, z = q.T
-    r = np.empty((q.shape[0], 3, 3))
-    r[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    r[:, 0, 1] = 2 * (x * y - w * z)
-    r[:, 0, 2] = 2 * (x * z + w * y)
-    r[:, 1, 0] = 2 * (x * y + w * z)
-    r[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    r[:, 1, 2] = 2 * (y * z - w * x)
-    r[:, 2, 0] = 2 * (x * z - w * y)
-    r[:, 2, 1] = 2 * (y * z + w * x)
-    r[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    return r, ok
-
-
 def object_to_camera(item: RenderItem, camera: Camera) -> np.ndarray:
     """(4, 4) float64 matrix from the item's local frame to Blender camera space."""
     return np.asarray(camera.world_to_camera, np.float64) @ np.asarray(item.world, np.float64)
@@ -96,15 +76,9 @@ def local_view_dirs(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> 
     the camera's forward axis taken into the local frame. With a non-rigid
     object matrix, local directions are A^-1 times world directions.
     """
-    world = np.asarray(item.world, np.float64)
+    eye, forward = camera_in_object(object_to_camera(item, camera))
     with np.errstate(all="ignore"):
-        inv = np.linalg.pinv(world)  # singular (zero-scale) objects give junk, culled later
-        if camera.ortho:
-            fwd_world = -np.linalg.inv(camera.world_to_camera)[:3, 2]
-            d = np.broadcast_to(inv[:3, :3] @ fwd_world, pos_local.shape)
-        else:
-            eye = inv[:3, :3] @ camera.position + inv[:3, 3]
-            d = pos_local - eye
+        d = np.broadcast_to(forward, pos_local.shape) if camera.ortho else pos_local - eye
         return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 

@@ -4,6 +4,27 @@ from __future__ import annotations
 import numpy as np
 
 
+def to_matrix(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 4) wxyz -> (N, 3, 3) rotations of the normalised quaternions, and a mask
+    of the usable ones (non-zero, finite norm)."""
+    q = np.asarray(q, np.float64)
+    norm = np.linalg.norm(q, axis=1)
+    ok = np.isfinite(norm) & (norm > 0)
+    q = q / np.where(ok, norm, 1.0)[:, None]
+    w, x, y, z = q.T
+    r = np.empty((q.shape[0], 3, 3))
+    r[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    r[:, 0, 1] = 2 * (x * y - w * z)
+    r[:, 0, 2] = 2 * (x * z + w * y)
+    r[:, 1, 0] = 2 * (x * y + w * z)
+    r[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    r[:, 1, 2] = 2 * (y * z - w * x)
+    r[:, 2, 0] = 2 * (x * z - w * y)
+    r[:, 2, 1] = 2 * (y * z + w * x)
+    r[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return r, ok
+
+
 def from_matrix(m: np.ndarray) -> np.ndarray:
     """(N, 3, 3) rotation matrices -> (N, 4) unit wxyz quaternions with w >= 0.
 

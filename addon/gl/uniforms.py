@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core import equirect
 from ..core.camera import Camera
-from ..core.project import j_clamp_bounds
+from ..core.project import camera_in_object, j_clamp_bounds
 from ..core.scene import RenderItem
 
 
@@ -72,11 +72,7 @@ def item_uniforms(item: RenderItem, camera: Camera, anchor: float = 0.0) -> dict
     world = np.asarray(item.world, np.float64)
     o2c = np.asarray(camera.world_to_camera, np.float64) @ world
     cam_from_local = o2c[:3, :3]
-    with np.errstate(all="ignore"):
-        inv = np.linalg.pinv(world)
-        eye = inv[:3, :3] @ camera.position + inv[:3, 3]
-        fwd = inv[:3, :3] @ -camera.camera_to_world[:3, 2]
-        fwd = fwd / np.linalg.norm(fwd)
+    eye, fwd = camera_in_object(o2c)
     hi, lo = split_float(eye)
     cm = np.asarray(item.color_matrix, np.float64)
     return {

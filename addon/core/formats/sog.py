@@ -39,15 +39,6 @@ DEFLATE_RATIO = 1032          # the most deflate can expand
 IMAGES = ("means_l", "means_u", "quats", "scales", "sh0")
 
 
-def is_sog_zip(path) -> bool:
-    """A zip whose members include meta.json (cheap: reads the central directory only)."""
-    try:
-        with zipfile.ZipFile(path) as z:
-            return "meta.json" in z.namelist()
-    except (zipfile.BadZipFile, OSError, ValueError):
-        return False
-
-
 def is_sog_meta(path) -> bool:
     return os.path.basename(os.fspath(path)).lower() == "meta.json"
 

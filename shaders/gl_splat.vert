@@ -23,19 +23,22 @@ bool sat_cell(int level, uvec2 c)
     return sat_flags[u_sat_offset[level] + c.y * u_sat_size[level].x + c.x] != 0u;
 }
 
-// every pixel the quad can cover (one pixel of slack each side) is saturated
-bool saturated(vec2 centre, float radius)
+// every pixel within `extent` (half-size of the quad's bounding box; one pixel of slack
+// each side) is saturated; checked at the finest level where that box spans <= 4x4 cells
+bool saturated(vec2 centre, vec2 extent)
 {
     if (u_sat_levels == 0) return false;
-    vec2 lo = max(floor(centre - radius - 0.5) - u_tile.xy, vec2(0.0));
-    vec2 hi = min(ceil(centre + radius - 0.5) - u_tile.xy, u_tile.zw - 1.0);
+    vec2 lo = max(floor(centre - extent - 0.5) - u_tile.xy, vec2(0.0));
+    vec2 hi = min(ceil(centre + extent - 0.5) - u_tile.xy, u_tile.zw - 1.0);
     if (any(greaterThan(lo, hi))) return false;
     uvec2 a = uvec2(lo), b = uvec2(hi);
-    for (int k = 0; k < u_sat_levels; k++) {  // the finest level where it spans <= 2x2 cells
+    for (int k = 0; k < u_sat_levels; k++) {
         uvec2 ca = a >> uint(2 + k), cb = b >> uint(2 + k);
-        if (cb.x - ca.x <= 1u && cb.y - ca.y <= 1u)
-            return sat_cell(k, ca) && sat_cell(k, uvec2(cb.x, ca.y)) && sat_cell(k, uvec2(ca.x, cb.y))
-                && sat_cell(k, cb);
+        if (cb.x - ca.x > 3u || cb.y - ca.y > 3u) continue;
+        for (uint y = ca.y; y <= cb.y; y++)
+            for (uint x = ca.x; x <= cb.x; x++)
+                if (!sat_cell(k, uvec2(x, y))) return false;
+        return true;
     }
     return false;
 }
@@ -76,23 +79,20 @@ void main()
     v_conic = vec3(r0.zw, r1.x);
     v_colour = vec4(record(2, k).rgb, r1.w);
     v_depth = r1.z;
+    vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1)) * 2.0 - 1.0;
+    bool tight = !u_capped_extent && r1.y < 2.0 * max(u_tile.z, u_tile.w);
+    // the rectangle around the alpha = 1/255 ellipse along its axes: same pixels as the
+    // square (the fragment stage drops alpha < 1/255), far fewer visited
+    mat2 axes = tight ? ellipse_box(v_conic, r1.w, r1.y) : mat2(r1.y);
 #ifdef SL_SATURATION_MAP
-    if (saturated(r0.xy, r1.y)) {
+    if (saturated(r0.xy, abs(axes[0]) + abs(axes[1]))) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn
         return;
     }
 #endif
-    vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1)) * 2.0 - 1.0;
-    vec2 pix;
-    if (!u_capped_extent && r1.y < 2.0 * max(u_tile.z, u_tile.w)) {
-        // the rectangle around the alpha = 1/255 ellipse along its axes: same pixels
-        // as the square (the fragment stage drops alpha < 1/255), far fewer visited
-        mat2 axes = ellipse_box(v_conic, r1.w, r1.y);
-        pix = r0.xy + axes * corner;
-    } else {
-        // the square quad, clamped to the tile (+1 px) so huge quads cost no more than it
-        pix = clamp(r0.xy + corner * r1.y, u_tile.xy - 1.0, u_tile.xy + u_tile.zw + 1.0);
-    }
+    vec2 pix = r0.xy + axes * corner;
+    // the square quad is clamped to the tile (+1 px) so huge quads cost no more than it
+    if (!tight) pix = clamp(pix, u_tile.xy - 1.0, u_tile.xy + u_tile.zw + 1.0);
     vec2 ndc = (pix - u_tile.xy) / u_tile.zw * 2.0 - 1.0;
     // z = 0.5 (window depth 0.75): behind the saturation mark (0.5), in front of the clear
     gl_Position = vec4(ndc.x, -ndc.y, 0.5, 1.0);

@@ -130,7 +130,8 @@ class Compositor:
         rgba = rgba.reshape(h, w, 4)[::-1]  # GL rows are bottom-up
         if not want_z:
             return rgba, np.full((h, w), np.inf, np.float32)
-        weighted = np.frombuffer(t["z"].read(), np.float32).reshape(h, w, 4)[::-1, :, 0]
+        weighted = np.frombuffer(fbo.read(components=1, attachment=1, dtype="f4"), np.float32)
+        weighted = weighted.reshape(h, w)[::-1]
         alpha = rgba[..., 3]
         with np.errstate(divide="ignore", invalid="ignore"):
             depth = np.where(alpha >= DEPTH_FROM_ALPHA, weighted / alpha, np.inf)

@@ -165,3 +165,14 @@ def test_tight_quads_keep_the_footprint_of_needles(renderer):
     assert (ref > 0).mean() > 0.3
     only = (out > 0) != (ref > 0)
     assert np.maximum(out, ref)[only].max(initial=0.0) < 1.01 / 255
+
+
+def test_glsl_early_termination_threshold_is_the_references():
+    """The shaders' SL_T_STOP twins core/reference.py's T_STOP."""
+    import re
+
+    from addon.gl import shaders
+
+    for name in ("gl_saturate.frag", "gl_saturation_map.comp"):
+        found = re.findall(r"const float SL_T_STOP = ([0-9.e+-]+);", shaders.read(name))
+        assert [float(v) for v in found] == [reference.T_STOP], name

@@ -17,12 +17,12 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..core.reference import DEPTH_FROM_ALPHA
 from . import shaders
 
 FIRST_BATCH = 1 / 64  # of the visible splats; then each batch doubles, up to MAX_BATCH
 MAX_BATCH = 1 / 8
 MIN_BATCH = 4096
-DEPTH_FROM_ALPHA = 0.5  # a pixel gets a depth where its splats' alpha reaches this
 MARK_UNIT = 3  # texture unit of the saturation pass's colour input (records use 4..6)
 SAT_LEVELS = 12  # saturation-map levels at most: cells of 4 .. 8192 pixels
 B_SATURATION = 8  # storage binding of the saturation map
@@ -126,7 +126,12 @@ class Compositor:
             self.vaos[draw].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
             self.splat_draws += 1
         ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
-        rgba = np.frombuffer(t["plain"].read(components=4, dtype="f4"), np.float32)
+        return self._read(fbo, w, h, want_z)
+
+    @staticmethod
+    def _read(fbo, w: int, h: int, want_z: bool):
+        """The tile's colour and, with want_z, the weighted depth sum divided by alpha."""
+        rgba = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
         rgba = rgba.reshape(h, w, 4)[::-1]  # GL rows are bottom-up
         if not want_z:
             return rgba, np.full((h, w), np.inf, np.float32)

@@ -61,7 +61,16 @@ def layers_camera(width=96, height=72):
     return simple_camera(width, height, 60.0, np.eye(4), near=0.1, far=100.0)
 
 
-def test_batched_early_termination_stays_within_its_bound(renderer):
+@pytest.fixture(scope="module")
+def fallback():
+    r = OffscreenRenderer(compute=False)  # GL 3.3: no saturation map, the depth marks alone
+    yield r
+    r.close()
+
+
+@pytest.mark.parametrize("path", ["renderer", "fallback"])
+def test_batched_early_termination_stays_within_its_bound(path, request):
+    renderer = request.getfixturevalue(path)
     item, cam = layers(), layers_camera()
     stop = renderer.render([item], cam, RenderOptions(early_termination=True))
     stats = dict(renderer.stats)

@@ -20,6 +20,7 @@ Each row is one entry of ROWS. Columns:
 """
 from __future__ import annotations
 
+import io
 import json
 import pathlib
 import statistics
@@ -97,8 +98,9 @@ class Before:
         except (OSError, subprocess.CalledProcessError) as exc:
             print(f"(no before column: git archive {BEFORE[:8]} failed: {exc})")
             return
-        with tarfile.open(fileobj=__import__("io").BytesIO(archive)) as tar:
-            tar.extractall(self.dir.name)
+        with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+            safe = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
+            tar.extractall(self.dir.name, **safe)
         self.proc = subprocess.Popen(
             [sys.executable, "-c", WORKER, self.dir.name, str(REPO), str(COUNT), *map(str, SIZE)],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)

@@ -20,7 +20,7 @@ from addon.core.formats import read
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer
-from gl_scenes import assert_depth_matches, framing_camera, psnr, world_for
+from gl_scenes import assert_depth_matches, framing_camera, psnr
 
 MIN_PSNR = 60.0
 C0 = 0.28209479177387814

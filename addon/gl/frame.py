@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-import moderngl
 import numpy as np
 
 from ..core.camera import Camera

@@ -1,4 +1,4 @@
-// Offscreen renderer: a full-tile triangle for the per-pixel depth-pass steps.
+// Offscreen renderer: a full-tile triangle (window depth 0.5) for per-pixel passes.
 void main()
 {
     vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));

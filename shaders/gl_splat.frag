@@ -1,13 +1,20 @@
-// Offscreen renderer, stage "draw": Gaussian falloff, premultiplied output.
-// Blending is ONE, ONE_MINUS_SRC_ALPHA back to front into RGBA32F.
+// Offscreen renderer, stage "draw": Gaussian falloff, premultiplied output, composited
+// front to back ("under": blend ONE_MINUS_DST_ALPHA, ONE into RGBA32F cleared to 0), so
+// dst.a is the accumulated alpha 1 - T and each splat adds T alpha (rgb, 1).
+// Location 1 (the Z pass, where attached) adds T alpha (depth, 0, 0, 1): its red channel
+// ends as sum of T_i alpha_i z_i, the numerator of the alpha-weighted depth.
+#if __VERSION__ >= 420
+layout(early_fragment_tests) in;  // saturated pixels (depth-marked) skip this shader
+#endif
 flat in vec2 v_centre;
 flat in vec3 v_conic;
 flat in vec4 v_colour;
-flat in float v_rank;
+flat in float v_depth;
 
 uniform vec4 u_tile;
 
-out vec4 frag;
+layout(location = 0) out vec4 frag;
+layout(location = 1) out vec4 frag_z;
 
 void main()
 {
@@ -16,4 +23,5 @@ void main()
     float alpha = sl_alpha(pix - v_centre, v_conic, v_colour.a);
     if (alpha < SL_ALPHA_MIN) discard;
     frag = vec4(v_colour.rgb * alpha, alpha);
+    frag_z = vec4(v_depth * alpha, 0.0, 0.0, alpha);
 }

@@ -1,28 +1,99 @@
-// Offscreen renderer, stage "draw": one instanced screen-aligned quad per sorted splat.
-// Instance k draws the k-th splat back to front. Pixels are top-left-origin, y down.
+// Offscreen renderer, stage "draw": one instanced screen-aligned quad per sorted splat,
+// FRONT TO BACK: instance i of a batch draws front-to-back rank u_first + i (the order
+// buffer itself is back to front). Pixels are top-left-origin, y down.
 // GL 4.3: records in storage buffers, order[k] from the sort. GL 3.3 fallback
 // (SL_TEXTURE_RECORDS): records already sorted on the CPU, in RGBA32F textures.
 #include_records
 
 uniform vec2 u_frame;    // full frame width, height
 uniform vec4 u_tile;     // x0, y0, width, height of the rendered tile, in frame pixels
-uniform uint u_visible;  // instances drawn
+uniform uint u_visible;  // splats in the frame's order
+uniform uint u_first;    // front-to-back rank of this batch's first splat
+
+#ifdef SL_SATURATION_MAP
+// Early termination (gl_saturation_map.comp): a splat whose quad covers only saturated
+// pixels is dropped here, before the rasterizer visits its pixels.
+layout(std430, binding = 8) readonly buffer Saturation { uint sat_flags[]; };
+uniform int u_sat_levels;  // 0: no map yet (first batch, or early termination off)
+uniform uint u_sat_offset[SL_SATURATION_MAP];
+uniform uvec2 u_sat_size[SL_SATURATION_MAP];
+
+bool sat_cell(int level, uvec2 c)
+{
+    return sat_flags[u_sat_offset[level] + c.y * u_sat_size[level].x + c.x] != 0u;
+}
+
+// every pixel within `extent` (half-size of the quad's bounding box; one pixel of slack
+// each side) is saturated; checked at the finest level where that box spans <= 4x4 cells
+bool saturated(vec2 centre, vec2 extent)
+{
+    if (u_sat_levels == 0) return false;
+    vec2 lo = max(floor(centre - extent - 0.5) - u_tile.xy, vec2(0.0));
+    vec2 hi = min(ceil(centre + extent - 0.5) - u_tile.xy, u_tile.zw - 1.0);
+    if (any(greaterThan(lo, hi))) return false;
+    uvec2 a = uvec2(lo), b = uvec2(hi);
+    for (int k = 0; k < u_sat_levels; k++) {
+        uvec2 ca = a >> uint(2 + k), cb = b >> uint(2 + k);
+        if (cb.x - ca.x > 3u || cb.y - ca.y > 3u) continue;
+        for (uint y = ca.y; y <= cb.y; y++)
+            for (uint x = ca.x; x <= cb.x; x++)
+                if (!sat_cell(k, uvec2(x, y))) return false;
+        return true;
+    }
+    return false;
+}
+#endif
+
+uniform bool u_capped_extent;  // quads cut at 3 sigma: keep the square (its corners are in)
+
+// Half-axes (columns) of a rectangle holding the ellipse d^T conic d <= 2 ln(255 o), the
+// pixels where alpha >= 1/255. The long half-axis is the square's radius (it is that
+// ellipse's, from the same eigenvalue); the short one is padded for the float32 error
+// of the axis direction (angle <= 8 eps |conic| / gap) and never exceeds the radius.
+mat2 ellipse_box(vec3 conic, float opacity, float radius)
+{
+    float a = conic.x, b = conic.y, c = conic.z;
+    float h = 0.5 * (a - c), root = sqrt(h * h + b * b);
+    float mu_max = 0.5 * (a + c) + root;
+    vec2 e1 = vec2(b, mu_max - a), e2 = vec2(mu_max - c, b);
+    vec2 minor_dir = dot(e1, e1) > dot(e2, e2) ? e1 : e2;
+    float len = length(minor_dir);
+    float angle = 8.0 * 1.2e-7 * mu_max / max(2.0 * root, 1e-30);
+    if (!(len > 0.0) || !(angle < 0.05)) return mat2(radius, 0.0, 0.0, radius);
+    minor_dir /= len;
+    float minor = sl_extent_sigma(opacity, false) * inversesqrt(mu_max);
+    minor = min(radius, minor * 1.001 + radius * angle + 1e-3);
+    return mat2(minor_dir * minor, vec2(-minor_dir.y, minor_dir.x) * radius);
+}
 
 flat out vec2 v_centre;
 flat out vec3 v_conic;
 flat out vec4 v_colour;  // rgb, opacity
-flat out float v_rank;   // front-to-back rank (depth pass)
+flat out float v_depth;  // view depth of the centre (Z pass)
 
 void main()
 {
-    vec4 r0 = record(0, uint(gl_InstanceID)), r1 = record(1, uint(gl_InstanceID));
+    uint k = u_visible - 1u - (u_first + uint(gl_InstanceID));
+    vec4 r0 = record(0, k), r1 = record(1, k);
     v_centre = r0.xy;
     v_conic = vec3(r0.zw, r1.x);
-    v_colour = vec4(record(2, uint(gl_InstanceID)).rgb, r1.w);
-    v_rank = float(u_visible - 1u - uint(gl_InstanceID));
+    v_colour = vec4(record(2, k).rgb, r1.w);
+    v_depth = r1.z;
     vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1)) * 2.0 - 1.0;
-    // clamp to the tile (+1 px) so huge quads cost no more than the frame
-    vec2 pix = clamp(r0.xy + corner * r1.y, u_tile.xy - 1.0, u_tile.xy + u_tile.zw + 1.0);
+    bool tight = !u_capped_extent && r1.y < 2.0 * max(u_tile.z, u_tile.w);
+    // the rectangle around the alpha = 1/255 ellipse along its axes: same pixels as the
+    // square (the fragment stage drops alpha < 1/255), far fewer visited
+    mat2 axes = tight ? ellipse_box(v_conic, r1.w, r1.y) : mat2(r1.y);
+#ifdef SL_SATURATION_MAP
+    if (saturated(r0.xy, abs(axes[0]) + abs(axes[1]))) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn
+        return;
+    }
+#endif
+    vec2 pix = r0.xy + axes * corner;
+    // the square quad is clamped to the tile (+1 px) so huge quads cost no more than it
+    if (!tight) pix = clamp(pix, u_tile.xy - 1.0, u_tile.xy + u_tile.zw + 1.0);
     vec2 ndc = (pix - u_tile.xy) / u_tile.zw * 2.0 - 1.0;
-    gl_Position = vec4(ndc.x, -ndc.y, 0.0, 1.0);
+    // z = 0.5 (window depth 0.75): behind the saturation mark (0.5), in front of the clear
+    gl_Position = vec4(ndc.x, -ndc.y, 0.5, 1.0);
 }

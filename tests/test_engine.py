@@ -62,7 +62,7 @@ def test_animation_writes_exr_sequence_and_mp4_of_guitar(bpy_empty, testdata, tm
         covered = alpha > 0.5
         display = linear_to_srgb(rgba[covered, :3] / alpha[covered, None])
         assert display.std(axis=0).min() > 0.03
-        # Depth is where alpha first reaches 0.5: background where the film never does.
+        # Depth (alpha-weighted) where the splats' alpha reaches 0.5, else the background.
         assert np.all(depth[alpha < 0.49] == 1e10)
         seen = depth[alpha > 0.51]
         cam_distance = np.hypot(1.1 * size, 0.1 * size)

@@ -9,7 +9,7 @@ import pytest
 from addon.core import reference
 from addon.core.scene import RenderItem, RenderOptions
 from addon.gl import OffscreenRenderer
-from gl_scenes import framing_camera, psnr, random_splats, two_objects, world_for
+from gl_scenes import assert_depth_matches, framing_camera, psnr, random_splats, two_objects, world_for
 
 MIN_PSNR = 60.0  # as test_gl_render.py
 
@@ -32,10 +32,7 @@ def test_fallback_against_reference(fallback, options):
     out = fallback.render(items, cam, options)
     ref = reference.render(items, cam, options)
     assert psnr(out.rgba, ref.rgba) >= MIN_PSNR and ref.rgba[..., 3].max() > 0.5
-    fin = np.isfinite(ref.depth)
-    assert np.mean(np.isfinite(out.depth) != fin) < 1e-3
-    both = fin & np.isfinite(out.depth)
-    assert np.allclose(out.depth[both], ref.depth[both], rtol=1e-5)
+    assert_depth_matches(out, items, cam, options)
 
 
 def test_fallback_matches_compute_path(fallback):

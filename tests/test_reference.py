@@ -88,12 +88,14 @@ def test_two_splats_composite_in_depth_order(side, swap_items):
     if swap_items:
         items = items[::-1]
     out = render(items, cam, RenderOptions())
-    red, green = (0.7, (1, 0, 0), 2.0), (0.6, (0, 1, 0), 2.0)
-    (a1, c1, z1), (a2, c2, _) = (red, green) if side == "front" else (green, red)
+    red, green = (0.7, (1, 0, 0)), (0.6, (0, 1, 0))
+    (a1, c1), (a2, c2) = (red, green) if side == "front" else (green, red)
     expect_rgb = a1 * np.array(c1) + (1 - a1) * a2 * np.array(c2)
     np.testing.assert_allclose(out.rgba[16, 16, :3], expect_rgb, atol=TOL)
     assert out.rgba[16, 16, 3] == pytest.approx(1 - (1 - a1) * (1 - a2), abs=TOL)
-    assert out.depth[16, 16] == pytest.approx(z1)  # the front splat takes alpha past 0.5
+    # the Z pass: alpha-weighted view depth, the front splat 2 away, the back one 4
+    w1, w2 = a1, (1 - a1) * a2
+    assert out.depth[16, 16] == pytest.approx((2.0 * w1 + 4.0 * w2) / (w1 + w2))
     assert np.isinf(out.depth[0, 0])
 
 
@@ -113,7 +115,8 @@ def test_objects_interleave_by_depth():
         t *= 1 - al
     np.testing.assert_allclose(out.rgba[16, 16, :3], expect, atol=TOL)
     assert out.rgba[16, 16, 3] == pytest.approx(1 - t, abs=TOL)
-    assert out.depth[16, 16] == pytest.approx(4.0)  # 1 - T: 0.45, then 0.67 >= 0.5 at B
+    weights = np.array([0.45, 0.55 * 0.4, 0.55 * 0.6 * 0.9])  # T alpha of each
+    assert out.depth[16, 16] == pytest.approx(weights @ [2.0, 4.0, 6.0] / weights.sum())
 
 
 def _rot_z(deg):

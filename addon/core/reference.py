@@ -24,6 +24,9 @@ other renderer (semantics in ../../../shared/DESIGN.md, projection in project.py
 - Equirect cameras: a splat whose quad reaches past the left or right edge is also
   drawn one longitude period over (equirect.seam_shifts), so it shows across the seam.
 - The background (premultiplied) goes behind everything: C + T bg.
+- Depth (the Z pass): the alpha-weighted view depth of the splats blended into the
+  pixel, sum(T_i alpha_i z_i) / (1 - T), z_i the view depth of splat i's centre; inf
+  where the splats' alpha 1 - T stays below DEPTH_FROM_ALPHA (0.5).
 - Work is per splat over the pixels of its bounding box, tile by tile, so a
   few small splats on an 8192 x 8192 frame cost little beyond the output.
 """
@@ -38,6 +41,7 @@ from .scene import RenderItem, RenderOptions, RenderOutput
 
 MAX_ALPHA = 0.99
 T_STOP = 1e-4  # INRIA's early-termination threshold on transmittance
+DEPTH_FROM_ALPHA = 0.5  # a pixel has a depth where its splats' alpha reaches this
 TILE = 256
 
 
@@ -111,7 +115,7 @@ def _render_tile(s: dict, x0: int, y0: int, x1: int, y1: int, early_termination:
     h, w = y1 - y0, x1 - x0
     col = np.zeros((h, w, 3))
     trans = np.ones((h, w))
-    depth = np.full((h, w), np.inf)
+    weighted = np.zeros((h, w))  # sum of T alpha z
     done = np.zeros((h, w), bool)
     box = s["box"]
     hits = np.nonzero((box[:, 0] < x1) & (box[:, 1] >= x0) & (box[:, 2] < y1) & (box[:, 3] >= y0))[0]
@@ -132,8 +136,8 @@ def _render_tile(s: dict, x0: int, y0: int, x1: int, y1: int, early_termination:
             mask &= ~stop
         a = np.where(mask, alpha, 0.0)
         col[sl] += (t * a)[..., None] * s["rgb"][i]
-        t_new = t * (1.0 - a)
-        crossed = (t > 0.5) & (t_new <= 0.5)
-        depth[sl][crossed] = s["depth"][i]
-        trans[sl] = t_new
+        weighted[sl] += t * a * s["depth"][i]
+        trans[sl] = t * (1.0 - a)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        depth = np.where(1.0 - trans >= DEPTH_FROM_ALPHA, weighted / (1.0 - trans), np.inf)
     return col, trans, depth

@@ -42,7 +42,11 @@ class RenderItem:
 @dataclass(frozen=True)
 class RenderOptions:
     antialiased: bool = False          # gsplat's opacity compensation for the 0.3 px^2 low-pass
-    early_termination: bool = False    # stop a pixel at transmittance < 1e-4 (INRIA tile rasterizer)
+    # Stop a pixel at transmittance < 1e-4 (INRIA's tile rasterizer). The reference stops at
+    # the exact splat; the GL renderer at the end of the front-to-back batch in which T fell
+    # below 1e-4 (it moves a pixel by at most that 1e-4 of light). On by default: the GL
+    # renderer then skips the splats hidden behind saturated pixels.
+    early_termination: bool = True
     capped_extent: bool = False        # quads at min(3, sqrt(2 ln(255 o))) sigma, not the 1/255 contour: faster
     key_bits: int = 32                 # 16 or 32-bit depth sort keys
     gpu_sort: bool = True              # offscreen renderer: compute-shader sort when GL >= 4.3
@@ -52,8 +56,13 @@ class RenderOptions:
 @dataclass
 class RenderOutput:
     """rgba: (H, W, 4) float32, premultiplied, display-referred sRGB, top-down rows.
-    depth: (H, W) float32 view-space depth (-z) of the splat at which the pixel's
-    accumulated alpha first reaches 0.5, front to back; inf where it never does."""
+    depth: (H, W) float32, the Z pass: the alpha-weighted view depth (-z) of the splats
+    composited into the pixel, sum(T_i alpha_i z_i) / sum(T_i alpha_i) with z_i the view
+    depth of splat i's centre and T_i alpha_i its share of the pixel's alpha (the weights
+    that make its colour); inf where that alpha (the splats', without the background)
+    stays below 0.5. Smooth along surfaces and through soft edges, which is what defocus
+    and fog want from a Z pass; a faint floater in front moves it by its own small weight.
+    Early termination, where on, ends the sum where it ends the colour."""
 
     rgba: np.ndarray
     depth: np.ndarray

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import math
 
-import moderngl
 import numpy as np
 
 from ..core.camera import Camera
 from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
-from .depthpass import DepthPass
+from .composite import Compositor
 from .fallback import RecordTextures, cpu_records
 from .sorting import RadixSorter, cpu_order
 from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform, slots_per_splat
@@ -35,16 +34,12 @@ class FrameState:
         self.cache = UploadCache(ctx, stats)
         self.sorter = RadixSorter(ctx) if self.compute else None
         self.record_textures = None if self.compute else RecordTextures(ctx)
-        self.depth_pass = DepthPass(ctx, records)
+        self.compositor = Compositor(ctx, records)
         self.preprocess = ctx.compute_shader(shaders.source("gl_preprocess.comp")) if self.compute else None
-        self.draw = ctx.program(vertex_shader=shaders.source("gl_splat.vert", records=records),
-                                fragment_shader=shaders.source("gl_splat.frag", records=records))
-        self.draw_vao = ctx.vertex_array(self.draw, [])
         self.range = ctx.buffer(reserve=12) if self.compute else None
         self.dummy = ctx.buffer(reserve=16) if self.compute else None
         self.capacity = 0
         self.arrays: dict = {}
-        self.targets: dict = {}
         self.last = (None, 0, 0)
         self.want_depth = True
 
@@ -115,28 +110,6 @@ class FrameState:
         self.stats["cpu_sorts"] += 1
         return a["order"]
 
-    def _target(self, w: int, h: int):
-        if (w, h) not in self.targets:
-            tex = self.ctx.texture((w, h), 4, dtype="f4")
-            self.targets[(w, h)] = (tex, self.ctx.framebuffer(color_attachments=[tex]))
-        return self.targets[(w, h)][1]
-
-    def _draw_tile(self, tile, visible: int, background) -> np.ndarray:
-        x0, y0, w, h = tile
-        fbo = self._target(w, h)
-        fbo.use()
-        fbo.viewport = (0, 0, w, h)
-        fbo.clear(*background)
-        if visible:
-            self.ctx.enable(moderngl.BLEND)
-            self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-            set_uniform(self.draw, "u_tile", (float(x0), float(y0), float(w), float(h)))
-            set_uniform(self.draw, "u_visible", visible)
-            self.draw_vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=visible)
-            self.ctx.disable(moderngl.BLEND)
-        data = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
-        return data.reshape(h, w, 4)[::-1]  # GL rows are bottom-up
-
     def _gpu_prepare(self, items, camera, options):
         """Upload, preprocess and sort with compute shaders; bind the frame's records."""
         self.cache.begin_frame()
@@ -160,17 +133,19 @@ class FrameState:
         else:
             records, visible = cpu_records(items, camera, options)
             self.record_textures.upload(records, self.stats)
-            self.record_textures.bind(self.draw, self.depth_pass.splat, self.depth_pass.resolve)
+            self.record_textures.bind(self.compositor.draw)
             self.stats["cpu_sorts"] += 1
             order, n = None, sum(item.splats.count for item in items)
         rgba = np.empty((camera.height, camera.width, 4), np.float32)
         depth = np.empty((camera.height, camera.width), np.float32)
-        bg = tuple(float(v) for v in options.background)
         for tile in tiles(camera.width, camera.height):
             x0, y0, w, h = tile
-            rgba[y0:y0 + h, x0:x0 + w] = self._draw_tile(tile, visible, bg)
-            depth[y0:y0 + h, x0:x0 + w] = self.depth_pass.run(
-                tile, visible if self.want_depth else 0, self.targets[(w, h)][0], bg[3])
+            out = (slice(y0, y0 + h), slice(x0, x0 + w))
+            rgba[out], depth[out] = self.compositor.run(tile, visible, options.early_termination,
+                                                        self.want_depth, options.capped_extent)
+            self.stats["splat_draws"] += self.compositor.splat_draws
+            self.stats["saturation_passes"] += self.compositor.mark_passes
+        behind(rgba, options.background)
         self.stats["frames"] += 1
         self.stats["resident_objects"] = self.cache.resident
         self.last = (order, visible, n)
@@ -195,18 +170,14 @@ class FrameState:
 
     def release(self):
         self.cache.release()
-        for owner in (self.sorter, self.record_textures, self.depth_pass):
+        for owner in (self.sorter, self.record_textures, self.compositor):
             if owner is not None:
                 owner.release()
         for buf in list(self.arrays.values()) + [self.range, self.dummy]:
             if buf is not None:
                 buf.release()
-        for tex, fbo in self.targets.values():
-            fbo.release()
-            tex.release()
-        for obj in (self.draw_vao, self.draw, self.preprocess):
-            if obj is not None:
-                obj.release()
+        if self.preprocess is not None:
+            self.preprocess.release()
 
     def preprocess_records(self, items, camera, options) -> dict:
         """Run only the upload and preprocess stages and read their output back, for tests
@@ -229,3 +200,11 @@ def tiles(width: int, height: int):
     for y0 in range(0, height, MAX_TILE):
         for x0 in range(0, width, MAX_TILE):
             yield x0, y0, min(MAX_TILE, width - x0), min(MAX_TILE, height - y0)
+
+
+def behind(rgba: np.ndarray, background) -> None:
+    """Put the premultiplied background behind the composited splats, in place:
+    C + T bg, with T = 1 - alpha (the reference's last step)."""
+    bg = np.asarray(background, np.float32)
+    if bg.any():
+        rgba += (1.0 - rgba[..., 3:4]) * bg

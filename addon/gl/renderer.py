@@ -38,25 +38,29 @@ def _create_context():
 class OffscreenRenderer:
     """render(items, camera, options) -> RenderOutput, like every renderer.
 
-    Same semantics as core/reference.py, except options.early_termination, which a quad
-    rasterizer cannot do: frames are always composited without it (as the reference's
-    default). Matches the reference to ~90-140 dB PSNR (bench/render_bench.py).
+    Same semantics as core/reference.py. Splats are composited front to back
+    (gl/composite.py); options.early_termination stops a pixel at the end of the batch
+    in which its transmittance fell below 1e-4 rather than at the exact splat: within
+    that 1e-4 of light of the full composite, and up to 1% from the reference's exact stop
+    (which leaves out the splat that would cross; bench/final_frame_bench.py measures
+    both). Matches the reference to ~90-140 dB PSNR (bench/render_bench.py).
 
     stats counts work across frames: frames, geometry_uploads (objects whose splats
-    were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts; resident_objects is
-    how many objects hold GPU buffers after the last frame.
+    were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts, splat_draws (draw
+    calls of splats: one per batch), saturation_passes (early-termination marks);
+    resident_objects is how many objects hold GPU buffers after the last frame.
     """
 
     def __init__(self, context_factory=_create_context, depth_pass: bool = True,
                  compute: bool | None = None):
-        """depth_pass=False skips the depth pass (about log9(visible) extra draws) and
-        returns depth filled with +inf: for colour-only uses and timing.
+        """depth_pass=False leaves out the Z attachment (RenderOutput.depth: one more
+        RGBA32F target blended in the same draws) and returns depth filled with +inf.
         compute=None uses compute shaders (GPU preprocess, GPU or CPU sort, cached
         uploads) where GL >= 4.3; compute=False, or an older GL, takes the GL 3.3
         fallback: CPU preprocess and sort (core/project.py, core/sort.py), GPU draw."""
         self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
                       "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0,
-                      "resident_objects": 0}
+                      "splat_draws": 0, "saturation_passes": 0, "resident_objects": 0}
         self._worker = GLWorker(context_factory)
         from .frame import FrameState
 
@@ -100,11 +104,6 @@ class OffscreenRenderer:
     def last_depths(self):
         """Per-splat sort depths of the last frame (view depth minus an anchor), +inf where culled."""
         return self._worker.call(self._last.last_depths)
-
-    @property
-    def depth_steps(self) -> int:
-        """Bisection steps the depth pass took in the last frame (log2 of the visible count)."""
-        return self._state.depth_pass.steps
 
     def close(self):
         """Release every GPU object and the context, and join the GL thread."""

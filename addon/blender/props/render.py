@@ -25,9 +25,10 @@ class RenderSettings(bpy.types.PropertyGroup):
         description="Compensate opacity for the 0.3 px low-pass filter (gsplat's "
                     "anti-aliased mode); use for captures trained that way")
     early_termination: bpy.props.BoolProperty(
-        name="Early Termination", default=False,
+        name="Early Termination", default=True,
         description="Stop a pixel once its transmittance drops below 1e-4, as INRIA's "
-                    "tile rasterizer does (only renderers that support it)")
+                    "tile rasterizer does: dense captures render faster "
+                    "(moderngl and the reference; not the Blender GPU path)")
     capped_extent: bpy.props.BoolProperty(
         name="Capped Extent (3 sigma)", default=False,
         description="Cut each splat's quad at 3 sigma instead of its exact footprint (where "

@@ -5,10 +5,10 @@ Metal) does the drawing, so a final render works wherever Blender's viewport doe
 It runs on the thread where Blender's GPU context is current: render() of an engine
 with bl_use_gpu_context = True (the moderngl path keeps its context on its own thread).
 
-Same semantics as the other renderers except two things a quad rasterizer in Blender's
-gpu module does not do: early termination (as moderngl), and the depth pass (its
-per-pixel search needs render targets and shaders the viewport code does not have),
-so RenderOutput.depth is +inf everywhere and the engine says so once.
+Same semantics as the other renderers except two things the viewport's drawing code
+does not do: early termination, and the depth pass (moderngl's front-to-back batches
+and Z attachment are not part of it), so RenderOutput.depth is +inf everywhere and the
+engine says so once.
 """
 from __future__ import annotations
 

@@ -1,0 +1,199 @@
+"""Front-to-back compositing of one tile, with early termination and the Z pass.
+
+The splats are drawn front to back and blended "under" (dst += (1 - dst.a) * src, src
+premultiplied), so the target's alpha is the accumulated alpha 1 - T, as in the
+reference's loop. With options.early_termination the draw is cut into batches: after
+each batch a full-tile pass marks the pixels whose transmittance fell below 1e-4 in the
+depth buffer, and later batches' fragments there fail the (early) depth test before
+their shader runs. A pixel so stops at the end of the batch in which it saturated, not
+at the exact splat, which moves it by at most the 1e-4 of light left behind it.
+
+The Z pass is one more RGBA32F attachment blended the same way: its red channel sums
+T_i alpha_i z_i. Divided by the accumulated alpha it is the alpha-weighted depth
+RenderOutput defines; same draws, no extra pass.
+"""
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..core.reference import DEPTH_FROM_ALPHA
+from . import shaders
+
+FIRST_BATCH = 1 / 64  # of the visible splats; then each batch doubles, up to MAX_BATCH
+MAX_BATCH = 1 / 8
+MIN_BATCH = 4096
+MARK_UNIT = 3  # texture unit of the saturation pass's colour input (records use 4..6)
+SAT_LEVELS = 12  # saturation-map levels at most: cells of 4 .. 8192 pixels
+B_SATURATION = 8  # storage binding of the saturation map
+
+
+def saturation_levels(w: int, h: int) -> list[tuple[int, int, int]]:
+    """(offset, columns, rows) of each level of the tile's saturation map (level k:
+    cells of 4 << k pixels), down to the level where the tile is at most 2x2 cells."""
+    out, offset = [], 0
+    for k in range(SAT_LEVELS):
+        cell = 4 << k
+        cols, rows = -(-w // cell), -(-h // cell)
+        out.append((offset, cols, rows))
+        offset += cols * rows
+        if cols <= 2 and rows <= 2:
+            break
+    return out
+
+
+def batches(visible: int, early_termination: bool) -> list[tuple[int, int]]:
+    """(first, count) front-to-back batches. Small first batches let a dense capture's
+    near surfaces saturate early; growing ones keep the number of marking passes low."""
+    if not early_termination or visible <= MIN_BATCH:
+        return [(0, visible)] if visible else []
+    out, first = [], 0
+    size = max(MIN_BATCH, int(visible * FIRST_BATCH))
+    limit = max(MIN_BATCH, int(visible * MAX_BATCH))
+    while first < visible:
+        count = min(size, visible - first)
+        out.append((first, count))
+        first += count
+        size = min(2 * size, limit)
+    return out
+
+
+class Compositor:
+    def __init__(self, ctx, records: str = "ssbo"):
+        self.ctx = ctx
+        # the saturation map needs compute shaders and storage buffers (GL 4.3)
+        self.sat_map = ctx.compute_shader(shaders.source("gl_saturation_map.comp", math=False)) \
+            if records == "ssbo" else None
+        defines = {"SL_SATURATION_MAP": SAT_LEVELS} if self.sat_map else {}
+        self.draw = ctx.program(
+            vertex_shader=shaders.source("gl_splat.vert", records=records, defines=defines),
+            fragment_shader=shaders.source("gl_splat.frag", records=records))
+        self.mark = ctx.program(
+            vertex_shader=shaders.source("gl_fullscreen.vert", math=False, records=records),
+            fragment_shader=shaders.source("gl_saturate.frag", math=False, records=records))
+        self.vaos = {p: ctx.vertex_array(p, []) for p in (self.draw, self.mark)}
+        self.targets: dict = {}
+        self.splat_draws = 0  # splat draw calls of the last tile (stats and tests)
+        self.mark_passes = 0
+
+    def _targets(self, w: int, h: int) -> dict:
+        if (w, h) not in self.targets:
+            colour = self.ctx.texture((w, h), 4, dtype="f4")
+            z = self.ctx.texture((w, h), 4, dtype="f4")
+            colour.filter = moderngl.NEAREST, moderngl.NEAREST
+            depth = self.ctx.depth_renderbuffer((w, h))
+            t = {"colour": colour, "z": z, "depth": depth,
+                 "plain": self.ctx.framebuffer([colour], depth),
+                 "with_z": self.ctx.framebuffer([colour, z], depth),
+                 "mark": self.ctx.framebuffer([], depth)}
+            if self.sat_map is not None:
+                levels = saturation_levels(w, h)
+                t["levels"] = levels
+                t["flags"] = self.ctx.buffer(reserve=4 * (levels[-1][0] + levels[-1][1] * levels[-1][2]))
+            t["plain"].depth_mask = t["with_z"].depth_mask = False
+            self.targets[(w, h)] = t
+        return self.targets[(w, h)]
+
+    def run(self, tile, visible: int, early_termination: bool, want_z: bool, capped: bool = False):
+        """Composite one tile (the order and records are bound). Returns (rgba, depth):
+        (h, w, 4) premultiplied splats only (no background) and (h, w) alpha-weighted
+        depth (inf below alpha 0.5, or everywhere without want_z), both top-down."""
+        x0, y0, w, h = tile
+        t = self._targets(w, h)
+        t["mark"].clear(depth=1.0)  # the splat framebuffers don't write depth, not even clears
+        fbo = t["with_z"] if want_z else t["plain"]
+        fbo.use()
+        fbo.viewport = (0, 0, w, h)
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self.splat_draws = self.mark_passes = 0
+        draw, ctx = self.draw, self.ctx
+        draw["u_tile"].value = (float(x0), float(y0), float(w), float(h))
+        draw["u_capped_extent"].value = bool(capped)
+        if "u_visible" in draw:
+            draw["u_visible"].value = visible
+        plan = batches(visible, early_termination)
+        self._use_map(t, 0)
+        ctx.enable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        ctx.blend_func = moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE
+        for number, (first, count) in enumerate(plan):
+            if number:
+                self._mark(t, w, h)
+                self._build_map(t, w, h)
+                fbo.use()
+            if "u_first" in draw:
+                draw["u_first"].value = first
+            self.vaos[draw].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+            self.splat_draws += 1
+        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        return self._read(fbo, w, h, want_z)
+
+    @staticmethod
+    def _read(fbo, w: int, h: int, want_z: bool):
+        """The tile's colour and, with want_z, the weighted depth sum divided by alpha."""
+        rgba = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+        rgba = rgba.reshape(h, w, 4)[::-1]  # GL rows are bottom-up
+        if not want_z:
+            return rgba, np.full((h, w), np.inf, np.float32)
+        weighted = np.frombuffer(fbo.read(components=1, attachment=1, dtype="f4"), np.float32)
+        weighted = weighted.reshape(h, w)[::-1]
+        alpha = rgba[..., 3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            depth = np.where(alpha >= DEPTH_FROM_ALPHA, weighted / alpha, np.inf)
+        return rgba, depth.astype(np.float32)
+
+    def _mark(self, t: dict, w: int, h: int):
+        """Depth-mark the saturated pixels (T < 1e-4) of the tile so far."""
+        mark = t["mark"]
+        mark.use()
+        mark.viewport = (0, 0, w, h)
+        ctx = self.ctx
+        ctx.disable(moderngl.BLEND)
+        t["colour"].use(MARK_UNIT)
+        self.mark["u_colour"].value = MARK_UNIT
+        self.vaos[self.mark].render(moderngl.TRIANGLES, vertices=3)
+        ctx.enable(moderngl.BLEND)
+        self.mark_passes += 1
+
+    def _build_map(self, t: dict, w: int, h: int):
+        """The saturation map of the tile so far, for the draw stage's culling."""
+        cs = self.sat_map
+        if cs is None:
+            return
+        t["colour"].use(MARK_UNIT)
+        t["flags"].bind_to_storage_buffer(B_SATURATION)
+        cs["u_colour"].value = MARK_UNIT
+        cs["u_tile_size"].value = (w, h)
+        below = (0, 1, 1)
+        for k, (offset, cols, rows) in enumerate(t["levels"]):
+            cs["u_level"].value = k
+            cs["u_size"].value = (cols, rows)
+            cs["u_offset"].value = offset
+            if k:
+                cs["u_below"].value = below[0]
+                cs["u_below_size"].value = below[1:]
+            cs.run((cols + 7) // 8, (rows + 7) // 8)
+            self.ctx.memory_barrier()
+            below = (offset, cols, rows)
+        self._use_map(t, len(t["levels"]))
+
+    def _use_map(self, t: dict, levels: int):
+        """Let the draw stage read the map's first `levels` levels (0: cull nothing)."""
+        if self.sat_map is None:
+            return
+        draw = self.draw
+        draw["u_sat_levels"].value = levels
+        if levels:
+            t["flags"].bind_to_storage_buffer(B_SATURATION)
+            pad = [(0, 1, 1)] * (SAT_LEVELS - len(t["levels"]))
+            draw["u_sat_offset"].value = [lv[0] for lv in t["levels"] + pad]
+            draw["u_sat_size"].value = [lv[1:] for lv in t["levels"] + pad]
+
+    def release(self):
+        for t in self.targets.values():
+            for name, obj in t.items():
+                if name != "levels":
+                    obj.release()
+        for obj in list(self.vaos.values()) + [self.draw, self.mark, self.sat_map]:
+            if obj is not None:
+                obj.release()

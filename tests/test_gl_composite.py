@@ -1,0 +1,187 @@
+"""Front-to-back batched compositing (addon/gl/composite.py): early termination and the
+Z pass, against the float64 reference (core/reference.py).
+
+Bars: the PSNR bar of test_gl_render.py (60 dB, reasons there). Early termination has a
+bound of its own: the GL renderer stops a pixel at the end of the batch in which its
+transmittance T fell below 1e-4, so against its own full composite it may only miss the
+light behind that point: at most T * (largest colour or alpha) < 1e-4 per channel.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from addon.core import reference
+from addon.core.axes import matrix_for
+from addon.core.camera import simple_camera
+from addon.core.formats import read
+from addon.core.scene import RenderItem, RenderOptions
+from addon.core.splats import SplatSet
+from addon.gl import OffscreenRenderer
+from gl_scenes import assert_depth_matches, framing_camera, psnr
+
+MIN_PSNR = 60.0
+C0 = 0.28209479177387814
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    r = OffscreenRenderer()
+    yield r
+    r.close()
+
+
+def layers(count: int = 12, per_side=(64, 48), opacity: float = 0.95, seed: int = 0):
+    """`count` walls of round splats facing the camera at depths 2, 2.25, 2.5, ... (one
+    per layer a colour), each wall a jittered grid covering the whole frame: every pixel
+    sees every layer and saturates (T < 1e-4) after four of them, except in a band on the
+    left (the first ~19 columns of layers_camera) where the splats' opacity is 0.05 and
+    all layers together leave T ~ 0.1."""
+    rng = np.random.default_rng(seed)
+    nx, ny = per_side
+    n = count * nx * ny
+    s = SplatSet.allocate(n, 0)
+    k = np.repeat(np.arange(count), nx * ny)
+    gx, gy = np.meshgrid(np.linspace(-1.2, 1.2, nx), np.linspace(-0.9, 0.9, ny))
+    depth = 2.0 + 0.25 * k
+    s.positions[:, 0] = np.tile(gx.ravel(), count) * depth / 2.0 + rng.normal(0, 0.004, n)
+    s.positions[:, 1] = np.tile(gy.ravel(), count) * depth / 2.0 + rng.normal(0, 0.004, n)
+    s.positions[:, 2] = -depth
+    s.scales[:] = (0.03 * depth / 2.0)[:, None]
+    s.rotations[:] = (1.0, 0.0, 0.0, 0.0)
+    s.opacities[:] = np.where(np.tile(gx.ravel(), count) < -0.7, 0.05, opacity)
+    hues = rng.uniform(0.1, 0.9, (count, 3))
+    s.sh_dc[:] = (hues[k] - 0.5) / C0
+    return RenderItem(s, key=("layers", count, seed))
+
+
+def layers_camera(width=96, height=72):
+    return simple_camera(width, height, 60.0, np.eye(4), near=0.1, far=100.0)
+
+
+@pytest.fixture(scope="module")
+def fallback():
+    r = OffscreenRenderer(compute=False)  # GL 3.3: no saturation map, the depth marks alone
+    yield r
+    r.close()
+
+
+@pytest.mark.parametrize("path", ["renderer", "fallback"])
+def test_batched_early_termination_stays_within_its_bound(path, request):
+    renderer = request.getfixturevalue(path)
+    item, cam = layers(), layers_camera()
+    stop = renderer.render([item], cam, RenderOptions(early_termination=True))
+    stats = dict(renderer.stats)
+    full = renderer.render([item], cam, RenderOptions(early_termination=False))
+    assert renderer.stats["splat_draws"] - stats["splat_draws"] == 1  # one batch, no marks
+    assert renderer.stats["saturation_passes"] == stats["saturation_passes"]
+    # most pixels saturate, the batches and marks ran, and the stop changed the image
+    saturated = full.rgba[..., 3] > 1 - 1e-4
+    assert 0.6 < saturated.mean() < 0.9 and not saturated[:, :12].any()
+    assert stats["splat_draws"] > 2 and stats["saturation_passes"] == stats["splat_draws"] - 1
+    diff = np.abs(stop.rgba.astype(np.float64) - full.rgba)
+    assert diff.max() > 0
+    assert diff.max() < 1e-4 * max(1.0, float(full.rgba.max()))
+
+
+def test_early_termination_against_both_references(renderer):
+    """Within the 60 dB bar of the reference with early termination (INRIA's stop) and of
+    the one without it (the full composite)."""
+    item, cam = layers(), layers_camera()
+    out = renderer.render([item], cam, RenderOptions())
+    assert RenderOptions().early_termination  # the default
+    for early in (True, False):
+        ref = reference.render([item], cam, RenderOptions(early_termination=early))
+        assert psnr(out.rgba, ref.rgba) >= MIN_PSNR
+    assert_depth_matches(out, [item], cam, RenderOptions())
+
+
+@pytest.mark.parametrize("early", [True, False])
+def test_z_pass_on_layered_surfaces(renderer, early):
+    """Known layers: the depth is the T alpha weighted mean of the layer depths, which
+    for four opaque-ish layers in front is close to the first's and past it."""
+    item, cam = layers(), layers_camera()
+    options = RenderOptions(early_termination=early)
+    out = renderer.render([item], cam, options)
+    assert_depth_matches(out, [item], cam, options)
+    centre = out.depth[20:52, 30:66]
+    weights = 0.95 * 0.05 ** np.arange(12)  # one full layer after another, roughly
+    expect = weights @ (2.0 + 0.25 * np.arange(12)) / weights.sum()
+    assert np.isfinite(centre).all()
+    np.testing.assert_allclose(np.median(centre), expect, rtol=0.01)
+
+
+def test_z_pass_on_a_real_capture_crop(renderer, testdata):
+    """guitar.ply with its real (RDF) axes: the Z pass on a 160x120 frame, the reference
+    on a 56x48 window of it (the same projection, exactly)."""
+    splats = read(testdata / "guitar.ply")
+    world = np.eye(4)
+    world[:3, :3] = matrix_for(splats.axes)
+    item = RenderItem(splats, world=world, key=("guitar", 0))
+    cam = framing_camera(item, 160, 120, distance=1.1)
+    out = renderer.render([item], cam, RenderOptions())
+    x, y, w, h = 52, 36, 56, 48
+    crop_out = type(out)(out.rgba[y:y + h, x:x + w], out.depth[y:y + h, x:x + w])
+    assert_depth_matches(crop_out, [item], cam, RenderOptions(), window=(x, y, w, h))
+
+
+def test_z_pass_costs_no_extra_draws():
+    """The depth comes from the colour draws' second attachment: the same number of splat
+    draws and saturation passes with the Z pass as without it."""
+    item, cam = layers(), layers_camera()
+    counts = {}
+    for want in (False, True):
+        with OffscreenRenderer(depth_pass=want) as r:
+            out = r.render([item], cam, RenderOptions())
+            counts[want] = (r.stats["splat_draws"], r.stats["saturation_passes"])
+            assert np.isfinite(out.depth).any() == want
+    assert counts[True] == counts[False] and counts[True][0] > 1
+
+
+def test_background_goes_behind_after_compositing(renderer):
+    item, cam = layers(count=2, opacity=0.4), layers_camera(48, 36)
+    bg = (0.1, 0.2, 0.3, 0.5)
+    out = renderer.render([item], cam, RenderOptions(background=bg))
+    ref = reference.render([item], cam, RenderOptions(background=bg))
+    assert psnr(out.rgba, ref.rgba) >= MIN_PSNR
+    plain = renderer.render([item], cam, RenderOptions())
+    t = 1.0 - plain.rgba[..., 3:4]
+    np.testing.assert_allclose(out.rgba, plain.rgba + t * np.float32(bg), atol=1e-6)
+    assert_depth_matches(out, [item], cam, replace(RenderOptions(), background=bg))
+
+
+def test_tight_quads_keep_the_footprint_of_needles(renderer):
+    """Quads fitted to each splat's 1/255 ellipse (gl_splat.vert) light the same pixels as
+    the reference's square ones, for needles and discs at every angle: a pixel lit by one
+    renderer only must sit at the 1/255 cut (alpha within float32 rounding of it)."""
+    rng = np.random.default_rng(7)
+    n = 400
+    s = SplatSet.allocate(n, 0)
+    s.positions[:] = rng.uniform(-0.8, 0.8, (n, 3)) * (1.0, 0.6, 0.3) + (0.0, 0.0, -3.0)
+    long_axis = np.exp(rng.uniform(np.log(0.02), np.log(0.4), n))
+    s.scales[:] = np.column_stack([long_axis, long_axis * np.exp(rng.uniform(-6, 0, n)),
+                                   np.full(n, 1e-4)])
+    q = rng.normal(size=(n, 4))
+    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    s.opacities[:] = rng.uniform(0.05, 1.0, n)
+    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
+    item, cam = RenderItem(s, key=("needles", 0)), layers_camera(128, 96)
+    options = RenderOptions(early_termination=False)
+    out = renderer.render([item], cam, options).rgba[..., 3]
+    ref = reference.render([item], cam, options).rgba[..., 3]
+    assert (ref > 0).mean() > 0.3
+    only = (out > 0) != (ref > 0)
+    assert np.maximum(out, ref)[only].max(initial=0.0) < 1.01 / 255
+
+
+def test_glsl_early_termination_threshold_is_the_references():
+    """The shaders' SL_T_STOP twins core/reference.py's T_STOP."""
+    import re
+
+    from addon.gl import shaders
+
+    for name in ("gl_saturate.frag", "gl_saturation_map.comp"):
+        found = re.findall(r"const float SL_T_STOP = ([0-9.e+-]+);", shaders.read(name))
+        assert [float(v) for v in found] == [reference.T_STOP], name

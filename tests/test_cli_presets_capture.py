@@ -12,9 +12,9 @@ import sys
 import numpy as np
 import pytest
 
-from addon.blender.evaluate.items import collect_items
 from addon.blender.ops.presets import find_preset
 from addon.core import effect_presets as core
+from capture_scenes import item_at, own_item, world_positions
 from conftest import ROOT
 
 PRESETS = ("sweep_reveal", "dissolve_out_noise", "fade_in", "glitch_displace", "explode")
@@ -36,22 +36,10 @@ def _span(bpy, name):
     return start + min(frames), start + max(frames)
 
 
-def _item(bpy, name, frame):
-    bpy.context.scene.frame_set(int(frame))
-    return next(i for i in collect_items(bpy.context.evaluated_depsgraph_get()) if i.key[0] == name)
 
 
-def _own(bpy, obj, frame):
-    for e in obj.splatline.effects:
-        e.enabled = False
-    item = _item(bpy, obj.name_full, frame)
-    for e in obj.splatline.effects:
-        e.enabled = True
-    return item
 
 
-def _world(item):
-    return item.splats.positions.astype(np.float64) @ item.world[:3, :3].T + item.world[:3, 3]
 
 
 @pytest.mark.parametrize("preset", PRESETS)
@@ -65,8 +53,8 @@ def test_cli_import_preset_reaches_its_end_state(bpy_empty, testdata, tmp_path, 
     name = obj.name_full
     assert np.abs(np.array(obj.matrix_world)[:3, :3] - np.eye(3)).max() > 0.5  # RDF as a rotation
     first, last = _span(bpy, preset)
-    own = _own(bpy, obj, last).splats
-    start, end = _item(bpy, name, first), _item(bpy, name, last)
+    own = own_item(bpy, obj, last).splats
+    start, end = item_at(bpy, name, first), item_at(bpy, name, last)
     if preset == "sweep_reveal":  # nothing shown first, then every splat at its own opacity
         assert start.splats.opacities.sum() < 0.01 * own.opacities.sum()
         np.testing.assert_array_equal(end.splats.opacities, own.opacities)
@@ -79,14 +67,14 @@ def test_cli_import_preset_reaches_its_end_state(bpy_empty, testdata, tmp_path, 
         assert (end.opacity_scale, end.splat_scale) == (1.0, 1.0)
     elif preset == "glitch_displace":  # jumps, then back at rest
         np.testing.assert_array_equal(end.splats.positions, own.positions)
-        moved = [not np.array_equal(_item(bpy, name, f).splats.positions, own.positions)
+        moved = [not np.array_equal(item_at(bpy, name, f).splats.positions, own.positions)
                  for f in range(int(first), int(last))]
         assert any(moved)
     else:  # explode: at rest at its start, then out from the centre and down the world's Z
         np.testing.assert_array_equal(start.splats.positions, own.positions)
-        later = _item(bpy, name, first + 48)
-        moved = _world(later) - _world(start)
-        size = np.ptp(_world(start), axis=0).max()
+        later = item_at(bpy, name, first + 48)
+        moved = world_positions(later) - world_positions(start)
+        size = np.ptp(world_positions(start), axis=0).max()
         assert np.median(np.linalg.norm(moved, axis=1)) > 0.5 * size and np.median(moved[:, 2]) < 0
 
 
@@ -100,11 +88,11 @@ def test_cli_import_morph_guitar_into_test64(bpy_empty, testdata, tmp_path):
     source, target = bpy.data.objects["guitar"], bpy.data.objects["test64"]
     _, last = _span(bpy, "morph")
     target.splatline.look.visible = False
-    end = _item(bpy, source.name_full, last)
+    end = item_at(bpy, source.name_full, last)
     target.splatline.look.visible = True
-    want = _item(bpy, target.name_full, last)
+    want = item_at(bpy, target.name_full, last)
     shown = end.splats.opacities > 0
     assert shown.sum() == want.splats.count
-    got = _world(end)[shown]
-    gap = np.linalg.norm(_world(want)[:, None] - got[None], axis=2)
+    got = world_positions(end)[shown]
+    gap = np.linalg.norm(world_positions(want)[:, None] - got[None], axis=2)
     assert gap.min(axis=1).max() < 1e-4 and len(set(gap.argmin(axis=1))) == want.splats.count

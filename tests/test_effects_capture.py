@@ -23,10 +23,10 @@ import numpy as np
 import pytest
 
 from addon.blender.data.files import import_file
-from addon.blender.evaluate.items import collect_items
 from addon.core.effects.noise import field as noise_field
 from addon.core.project import quat_to_matrix
 from addon.core.sh import C0, sh_to_rgb
+from capture_scenes import item_at, place
 
 CAPTURES = ("guitar.ply", "test64.ply")
 TRANSFORMS = ("imported", "parented")
@@ -34,23 +34,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 
 # -- the scene ----------------------------------------------------------------------------
-def _import(bpy, testdata, name, transform):
-    obj = import_file(bpy.context, str(testdata / name))
-    if transform == "parented":
-        parent = bpy.data.objects.new("rig", None)
-        bpy.context.scene.collection.objects.link(parent)
-        parent.location = (3.0, 1.0, -1.0)
-        parent.rotation_euler = (math.radians(70), math.radians(-20), math.radians(40))
-        parent.scale = (0.4, 0.4, 0.4)
-        obj.parent = parent
-    bpy.context.view_layer.update()
-    return obj
 
 
-def _item(bpy, obj, frame=1):
-    bpy.context.scene.frame_set(int(frame))
-    items = collect_items(bpy.context.evaluated_depsgraph_get())
-    return next(i for i in items if i.key[0] == obj.name_full)
 
 
 def _add(bpy, obj, kind, **props):
@@ -70,10 +55,10 @@ class Scene:
         self.bpy, self.obj, self.frame = bpy, obj, frame
         for e in obj.splatline.effects:
             e.enabled = False
-        self.rest = _item(bpy, obj, frame)
+        self.rest = item_at(bpy, obj.name_full, frame)
         for e in obj.splatline.effects:
             e.enabled = True
-        self.out = _item(bpy, obj, frame)
+        self.out = item_at(bpy, obj.name_full, frame)
         w = self.rest.world
         self.origin = w[:3, 3]
         self.scale = abs(np.linalg.det(w[:3, :3])) ** (1 / 3)
@@ -227,20 +212,20 @@ def _grade(bpy, obj, field, low, high):
     return s, colour
 
 
-def grade_height(bpy, obj, capture):
-    s = Scene(bpy, obj)
-    low, high = _quantiles(s.h, 0.1, 0.9)
-    s, colour = _grade(bpy, obj, "HEIGHT", low, high)
-    x = np.clip((s.h - low) / (high - low), 0, 1)
+def _grade_ramp(bpy, obj, field, values):
+    """At MIX the colour is the a-b gradient of the world field's values, 10-90 %."""
+    low, high = _quantiles(values, 0.1, 0.9)
+    s, colour = _grade(bpy, obj, field, low, high)
+    x = np.clip((values - low) / (high - low), 0, 1)
     np.testing.assert_allclose(colour, np.c_[x, 0 * x, 1 - x], atol=1e-5)
+
+
+def grade_height(bpy, obj, capture):
+    _grade_ramp(bpy, obj, "HEIGHT", Scene(bpy, obj).h)
 
 
 def grade_distance(bpy, obj, capture):
-    s = Scene(bpy, obj)
-    low, high = _quantiles(s.distance, 0.1, 0.9)
-    s, colour = _grade(bpy, obj, "DISTANCE", low, high)
-    x = np.clip((s.distance - low) / (high - low), 0, 1)
-    np.testing.assert_allclose(colour, np.c_[x, 0 * x, 1 - x], atol=1e-5)
+    _grade_ramp(bpy, obj, "DISTANCE", Scene(bpy, obj).distance)
 
 
 def grade_noise(bpy, obj, capture):
@@ -261,7 +246,7 @@ def morph(bpy, obj, capture):
     target.splatline.look.visible = False
     s = Scene(bpy, obj)
     target.splatline.look.visible = True
-    want = _item(bpy, target)
+    want = item_at(bpy, target.name_full)
     ws = Scene.world(want)
     np.testing.assert_allclose(s.after, ws, atol=1e-5 * s.size)  # equal counts pair by index
     dirs = np.random.default_rng(1).normal(size=(want.splats.count, 3))
@@ -302,7 +287,7 @@ CASES = [(kind, variant) for kind, variants in CHECKS.items() for variant in var
 @pytest.mark.parametrize("kind,variant", CASES, ids=[f"{k}-{v}" if v else k for k, v in CASES])
 def test_effect_reaches_its_stated_state_on_a_real_capture(bpy_empty, testdata, capture, transform,
                                                           kind, variant):
-    obj = _import(bpy_empty, testdata, capture, transform)
+    obj = place(bpy_empty, testdata, capture, transform)
     CHECKS[kind][variant](bpy_empty, obj, testdata / capture)
 
 

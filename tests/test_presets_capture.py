@@ -11,40 +11,17 @@ import pytest
 import bpy  # noqa: F401
 
 from addon.blender.ops import effect_presets
-from addon.blender.evaluate.items import collect_items
-from addon.blender.data.files import import_file
 from addon.blender.ops.presets import find_preset
 from addon.core import effect_presets as core
 from addon.core.sh import sh_to_rgb
+from capture_scenes import TRANSFORMS, item_at, own_item, place, world_positions
 
 AT = 5
 CAPTURES = ("guitar.ply", "test64.ply")
-TRANSFORMS = ("imported", "turned_scaled", "parented")
 
 
-def _import(bpy, testdata, name, transform, suffix=""):
-    obj = import_file(bpy.context, str(testdata / name))
-    obj.name = obj.name + suffix
-    if transform == "turned_scaled":
-        obj.rotation_euler.rotate_axis("X", math.radians(50))
-        obj.rotation_euler.rotate_axis("Z", math.radians(30))
-        obj.scale = (2.5, 2.5, 2.5)
-        obj.location = (1.0, -2.0, 0.5)
-    elif transform == "parented":
-        parent = bpy.data.objects.new("rig" + suffix, None)
-        bpy.context.scene.collection.objects.link(parent)
-        parent.location = (3.0, 1.0, -1.0)
-        parent.rotation_euler = (math.radians(70), math.radians(-20), math.radians(40))
-        parent.scale = (0.4, 0.4, 0.4)
-        obj.parent = parent
-    bpy.context.view_layer.update()
-    return obj
 
 
-def _item(bpy, obj, frame):
-    bpy.context.scene.frame_set(int(frame))
-    items = collect_items(bpy.context.evaluated_depsgraph_get())
-    return next(i for i in items if i.key[0] == obj.name)
 
 
 def _apply(bpy, obj, name, target=None):
@@ -60,36 +37,26 @@ def _span(preset) -> tuple[float, float]:
     return AT + min(frames), AT + max(frames)
 
 
-def _own(bpy, obj, frame):
-    """The object's splats with its effects off: each splat's own opacity."""
-    for effect in obj.splatline.effects:
-        effect.enabled = False
-    item = _item(bpy, obj, frame)
-    for effect in obj.splatline.effects:
-        effect.enabled = True
-    return item
 
 
-def _world(item):
-    return item.splats.positions.astype(np.float64) @ item.world[:3, :3].T + item.world[:3, 3]
 
 
 @pytest.mark.parametrize("transform", TRANSFORMS)
 @pytest.mark.parametrize("capture", CAPTURES)
 def test_sweep_reveal_shows_every_splat_at_its_own_opacity(bpy_empty, testdata, capture, transform):
     bpy = bpy_empty
-    obj = _import(bpy, testdata, capture, transform)
+    obj = place(bpy, testdata, capture, transform)
     first, last = _span(_apply(bpy, obj, "sweep_reveal"))
-    own = _own(bpy, obj, last).splats.opacities
-    start = _item(bpy, obj, first).splats.opacities
-    end = _item(bpy, obj, last).splats
+    own = own_item(bpy, obj, last).splats.opacities
+    start = item_at(bpy, obj.name_full, first).splats.opacities
+    end = item_at(bpy, obj.name_full, last).splats
     assert start.sum() / own.sum() < 0.01
     shown = np.isclose(end.opacities, own, rtol=1e-6, atol=0)
     assert shown.all(), f"{shown.mean():.1%} of splats at their own opacity"
-    np.testing.assert_array_equal(end.scales, _own(bpy, obj, last).splats.scales)
+    np.testing.assert_array_equal(end.scales, own_item(bpy, obj, last).splats.scales)
     # It sweeps up the world's Z: halfway, the shown splats sit lower than the hidden ones.
-    half = _item(bpy, obj, 0.5 * (first + last))
-    z = _world(half)[:, 2]
+    half = item_at(bpy, obj.name_full, 0.5 * (first + last))
+    z = world_positions(half)[:, 2]
     lit = half.splats.opacities.ravel() > 0.5 * own.ravel()
     assert 0 < lit.sum() < lit.size and z[lit].mean() < z[~lit].mean()
 
@@ -98,19 +65,19 @@ def test_sweep_reveal_shows_every_splat_at_its_own_opacity(bpy_empty, testdata, 
 @pytest.mark.parametrize("capture", CAPTURES)
 def test_dissolve_fade_and_glitch_reach_their_ends(bpy_empty, testdata, capture, transform):
     bpy = bpy_empty
-    obj = _import(bpy, testdata, capture, transform)
+    obj = place(bpy, testdata, capture, transform)
     first, last = _span(_apply(bpy, obj, "dissolve_out_noise"))
-    own = _own(bpy, obj, first).splats.opacities
-    np.testing.assert_allclose(_item(bpy, obj, first).splats.opacities, own, rtol=1e-6)
-    assert _item(bpy, obj, last).splats.opacities.max() == 0.0
+    own = own_item(bpy, obj, first).splats.opacities
+    np.testing.assert_allclose(item_at(bpy, obj.name_full, first).splats.opacities, own, rtol=1e-6)
+    assert item_at(bpy, obj.name_full, last).splats.opacities.max() == 0.0
     obj.splatline.effects.clear()
     obj.animation_data_clear()
     first, last = _span(_apply(bpy, obj, "fade_in"))
-    assert (_item(bpy, obj, first).opacity_scale, _item(bpy, obj, first).splat_scale) == (0.0, 0.5)
-    assert (_item(bpy, obj, last).opacity_scale, _item(bpy, obj, last).splat_scale) == (1.0, 1.0)
+    assert (item_at(bpy, obj.name_full, first).opacity_scale, item_at(bpy, obj.name_full, first).splat_scale) == (0.0, 0.5)
+    assert (item_at(bpy, obj.name_full, last).opacity_scale, item_at(bpy, obj.name_full, last).splat_scale) == (1.0, 1.0)
     first, last = _span(_apply(bpy, obj, "glitch_displace"))
-    rest = _own(bpy, obj, last).splats.positions
-    np.testing.assert_array_equal(_item(bpy, obj, last).splats.positions, rest)
+    rest = own_item(bpy, obj, last).splats.positions
+    np.testing.assert_array_equal(item_at(bpy, obj.name_full, last).splats.positions, rest)
 
 
 @pytest.mark.parametrize("transform", TRANSFORMS)
@@ -118,13 +85,13 @@ def test_dissolve_fade_and_glitch_reach_their_ends(bpy_empty, testdata, capture,
 def test_explode_bursts_from_the_centre_and_falls_down_the_world(bpy_empty, testdata, capture,
                                                                  transform):
     bpy = bpy_empty
-    obj = _import(bpy, testdata, capture, transform)
+    obj = place(bpy, testdata, capture, transform)
     first, _ = _span(_apply(bpy, obj, "explode"))
-    rest = _item(bpy, obj, first)
-    np.testing.assert_array_equal(rest.splats.positions, _own(bpy, obj, first).splats.positions)
-    later = _item(bpy, obj, first + 48)
-    size = np.ptp(_world(rest), axis=0).max()
-    moved = _world(later) - _world(rest)
+    rest = item_at(bpy, obj.name_full, first)
+    np.testing.assert_array_equal(rest.splats.positions, own_item(bpy, obj, first).splats.positions)
+    later = item_at(bpy, obj.name_full, first + 48)
+    size = np.ptp(world_positions(rest), axis=0).max()
+    moved = world_positions(later) - world_positions(rest)
     assert np.median(np.linalg.norm(moved, axis=1)) > 0.5 * size
     fall = moved[:, 2]
     assert np.median(fall) < 0  # gravity pulls down the world's Z, not the capture's
@@ -137,18 +104,18 @@ def test_morph_ends_as_the_target_itself(bpy_empty, testdata, transform):
     at the end every target splat is where the target draws it, with the target's colour
     seen from any world direction (SH rotated into the source's frame)."""
     bpy = bpy_empty
-    source = _import(bpy, testdata, "guitar.ply", transform)
-    target = _import(bpy, testdata, "test64.ply", "imported")
+    source = place(bpy, testdata, "guitar.ply", transform)
+    target = place(bpy, testdata, "test64.ply", "imported")
     target.rotation_euler.rotate_axis("Z", math.radians(90))
     target.scale = (1.5, 1.5, 1.5)
     target.splatline.look.visible = False
     _, last = _span(_apply(bpy, source, "morph", target))
-    end = _item(bpy, source, last)
+    end = item_at(bpy, source.name_full, last)
     target.splatline.look.visible = True
-    want = _item(bpy, target, last)
+    want = item_at(bpy, target.name_full, last)
     assert end.splats.count == want.splats.count
     # pair each target splat with the nearest end splat (exact ties would reorder a sort)
-    gap = np.linalg.norm(_world(want)[:, None] - _world(end)[None], axis=2)
+    gap = np.linalg.norm(world_positions(want)[:, None] - world_positions(end)[None], axis=2)
     order_end, order_want = gap.argmin(axis=1), np.arange(want.splats.count)
     assert gap.min(axis=1).max() < 1e-4 and len(set(order_end)) == want.splats.count
     dirs = np.random.default_rng(1).normal(size=(want.splats.count, 3))

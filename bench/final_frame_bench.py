@@ -135,6 +135,8 @@ def tile_errors(rgba, depth, states, windows) -> dict:
     for early in (True, False):
         ref = np.concatenate(refs[early])
         err["et" if early else "full"] = (psnr(got, ref), float(np.abs(got - ref).max()))
+    err["windows"] = [(psnr(g, r), float(np.abs(g - r).max())) for g, r in zip(
+        np.split(got, np.cumsum([w[2] * w[3] for w in windows])[:-1]), refs[False])]
     err["saturated"] = float(np.mean(np.concatenate(refs[False])[:, 3] > 1 - 1e-4))
     err["z"] = float("nan")
     if depth is not None and len(states) == 1:
@@ -211,6 +213,10 @@ def print_table(rows):
               f"{f'{now / colour[0]:.2f} ({now_cpu / colour[1]:.2f})':>11s} "
               f"{e['et'][0]:8.1f} {e['full'][0]:9.1f} {worst:>17s} {z:>9s}", flush=True)
     print(f"saturated pixels (T < 1e-4) in the colour row's tiles: {100 * rows[0][2]['saturated']:.0f}%")
+    for row, _, e in rows:
+        if row.window_names:
+            print(f"{row.label} per window, PSNR / max abs against the reference without ET: " + "; ".join(
+                f"{n} {p:.1f} dB / {m:.1e}" for n, (p, m) in zip(row.window_names, e["windows"])))
 
 
 if __name__ == "__main__":

@@ -36,6 +36,7 @@ TILE = 128
 TILES = tuple((x, y, TILE, TILE) for x, y in ((896, 476), (256, 160), (1536, 160), (256, 792), (1536, 792)))
 PANORAMA_TILES = ((896, 476, TILE, TILE), (0, 476, TILE // 2, TILE), (1920 - TILE // 2, 476, TILE // 2, TILE),
                   (896, 0, TILE, TILE), (896, 1080 - TILE, TILE, TILE), (1536, 300, TILE, TILE))
+PANORAMA_NAMES = ("centre", "seam (left edge)", "seam (right edge)", "north pole", "south pole", "off-centre")
 FIGURE_CENTRE = (0.0, 0.0, 1.0)
 FSTOP = 1.4
 LENS_SAMPLES = 64
@@ -88,6 +89,7 @@ class Row:
     before: str | None = None                # the before worker's frame name; None: new
     states: Callable = still                 # (items, camera) -> [(items, camera)], averaged
     windows: tuple = TILES                   # (x, y, w, h) error windows of the frame
+    window_names: tuple = ()                 # given: the error is also printed per window
 
 
 ROWS = (
@@ -95,7 +97,7 @@ ROWS = (
     Row("+ Z", depth=True, before="z"),
     Row("+ DOF", states=with_dof),
     Row(f"+ motion blur ({BLUR_SAMPLES} samples)", states=motion_blur),
-    Row("equirect", states=panorama, windows=PANORAMA_TILES),
+    Row("equirect", states=panorama, windows=PANORAMA_TILES, window_names=PANORAMA_NAMES),
 )
 
 

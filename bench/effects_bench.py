@@ -10,7 +10,6 @@ floor), so the table says how far each effect is from being bandwidth-bound.
 from __future__ import annotations
 
 import argparse
-import statistics
 import time
 
 import numpy as np
@@ -21,6 +20,7 @@ from addon.core.effects import noise
 from addon.core.formats.synth import random_splats
 from addon.core.look import CropSphere, apply_crop
 from addon.core.splats import SplatSet
+from bench.common import wall_and_cpu
 
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 
@@ -31,19 +31,10 @@ def make_splats(n: int, degree: int, seed: int) -> SplatSet:
 
 
 def measure(fn, runs: int) -> tuple[float, float]:
-    """(wall ms, CPU ms) medians. The kernels are single-threaded numpy, so CPU time is the
-    uncontended cost on a shared machine; wall time includes waiting for a core."""
-    wall, cpu = [], []
-    for i in range(runs):
-        t, c = time.perf_counter(), time.process_time()
-        fn(i)
-        cpu.append(time.process_time() - c)
-        wall.append(time.perf_counter() - t)
-    return statistics.median(wall) * 1e3, statistics.median(cpu) * 1e3
-
-
-def median_ms(fn, runs: int) -> float:
-    return measure(fn, runs)[0]
+    """(wall ms, CPU ms) medians of fn(i). The kernels are single-threaded numpy, so CPU
+    time is the uncontended cost on a shared machine; wall time includes waiting for a core."""
+    wall, cpu = wall_and_cpu(fn, runs)
+    return wall * 1e3, cpu * 1e3
 
 
 def touched_bytes(before: SplatSet, after: SplatSet) -> int:

@@ -12,23 +12,14 @@ and the file cost on top of the renderer. Medians of REPEATS runs.
 from __future__ import annotations
 
 import pathlib
-import statistics
 import sys
 import tempfile
-import time
+
+from bench.common import median_s
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 REPEATS = 3
 SIZES = ((320, 180), (960, 540))  # llvmpipe takes seconds a frame; add 1920x1080 on a GPU
-
-
-def _median_time(fn, repeats=REPEATS):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def _scene(bpy):
@@ -53,13 +44,13 @@ def _row(bpy, scene, renderer, width, height):
     items = collect_items(depsgraph)
     options = scene.splatline.render.options()
     renderer.render(items, camera, options)  # warm: uploads, shader compile
-    gather = _median_time(lambda: collect_items(depsgraph))
-    gl = _median_time(lambda: renderer.render(items, camera, options))
+    gather = median_s(lambda: collect_items(depsgraph), REPEATS)
+    gl = median_s(lambda: renderer.render(items, camera, options), REPEATS)
     out = renderer.render(items, camera, options)
-    convert = _median_time(lambda: bottom_up(to_scene_linear(out.rgba)))
-    still = _median_time(lambda: bpy.ops.render.render())
+    convert = median_s(lambda: bottom_up(to_scene_linear(out.rgba)), REPEATS)
+    still = median_s(lambda: bpy.ops.render.render(), REPEATS)
     frames = scene.frame_end - scene.frame_start + 1
-    anim = _median_time(lambda: bpy.ops.render.render(animation=True), 1) / frames
+    anim = median_s(lambda: bpy.ops.render.render(animation=True), 1) / frames
     return gather, gl, convert, still, anim
 
 

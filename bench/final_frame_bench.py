@@ -3,20 +3,26 @@
 
     python -m bench final        (or make bench)
 
-Each row is one entry of ROWS. Columns:
+One row per entry of final_frame_rows.ROWS: colour, + Z, + DOF, + motion blur, equirect.
+Columns:
 - ms now / before: median wall ms per frame over RUNS frames after a warm-up on a small
   frame (shaders, uploads); CPU ms alongside (all threads: llvmpipe's included), which
-  shared machines disturb less. "Before" is the renderer of BEFORE (the commit before
-  issue 14's batching and Z pass: back-to-front single draw, search depth pass) taken
-  from git into a temporary folder and run in a worker process on the same scene, its
-  frames interleaved with this tree's so both see the same machine load.
-- PSNR / max abs: premultiplied RGBA against the float64 reference (core/reference.py),
-  with early termination (ET, INRIA's exact stop) and without it (the full composite).
-  The reference is far too slow for the whole frame at this size, so the error is over
-  TILES: five 128x128 windows of the frame (centre and four off-centre), rendered by the
-  reference exactly as parts of the same frame (reference.render(window=...)).
+  shared machines disturb less. A motion-blurred frame is all its sub-frame renders and
+  their average. "Before" is the renderer of BEFORE (the commit before issue 14's
+  batching and Z pass: back-to-front single draw, search depth pass) taken from git into a
+  temporary folder and run in a worker process on the same scene, its frames interleaved
+  with this tree's so both see the same machine load; it has no DOF, motion blur or
+  panorama ("n/a (new)"). now / colour: the row against this tree's colour row, same run.
+- PSNR / max abs: premultiplied RGBA against the float64 reference (core/reference.py)
+  with the same feature (motion blur: the same average of reference sub-frames), with
+  early termination (ET, INRIA's exact stop) and without it (the full composite). The
+  reference is far too slow for the whole frame at this size, so the error is over each
+  row's windows (final_frame_rows: five 128x128 tiles; equirect: centre, seam, poles),
+  rendered by the reference exactly as parts of the same frame (reference.render(window=...)),
+  from the splats that reach them (common.reaching; the others add nothing there).
 - Z max err: the Z pass against the reference's (alpha-weighted depth, no ET), the
   largest error relative to the depth range of the tiles, over pixels with a depth in both.
+Under the table: DOF against the lens itself (final_frame_rows.lens_figures).
 """
 from __future__ import annotations
 
@@ -29,41 +35,21 @@ import sys
 import tarfile
 import tempfile
 import time
-from dataclasses import dataclass, replace
 
 import numpy as np
 
-from addon.core import reference
-from addon.core.camera import Camera
+from addon.core import reference, shutter
 from addon.core.scene import RenderOptions
+from bench.common import crop, psnr, reaching
+from bench.final_frame_rows import LENS_SAMPLES, ROWS, lens_figures, small
 from bench.playbot_scene import scene
 
 RUNS = 3
 SIZE = (1920, 1080)
 COUNT = 500_000
 BEFORE = "7bec52bdd58f941ff411b3d870945cc9e303fbe0"  # main before issue 14 (items 1, 2)
-TILES = ((896, 476), (256, 160), (1536, 160), (256, 792), (1536, 792))
-TILE = 128
 REPO = pathlib.Path(__file__).resolve().parents[1]
-
-
-@dataclass(frozen=True)
-class Row:
-    """One row: how this tree renders it, and the baseline worker's name for the same
-    frame (None: no before). camera maps the bench camera to the row's."""
-    label: str
-    options: RenderOptions = RenderOptions()
-    depth: bool = False
-    before: str | None = None
-    camera: object = None
-
-
-ROWS = (
-    Row("colour", depth=False, before="colour"),
-    Row("+ Z", depth=True, before="z"),
-    # Issue 14 items 3-5 (branch f14camera) add one entry each here:
-    # "+ DOF", "+ motion blur (8 samples)", "equirect".
-)
+OPTIONS = RenderOptions()  # the renderer's defaults (early termination on)
 
 WORKER = r"""
 import json, sys, time
@@ -120,37 +106,47 @@ class Before:
         self.dir.cleanup()
 
 
-def small_camera(cam: Camera) -> Camera:
-    return Camera(cam.world_to_camera, 64, 36, cam.fx / 30, cam.fy / 30, 32.0, 18.0, cam.near, cam.far)
+def render_row(renderer, states):
+    """(rgba, depth or None) of one frame: the render, or the sub-frames' average."""
+    if len(states) == 1:
+        out = renderer.render(*states[0], OPTIONS)
+        return out.rgba, out.depth
+    avg = shutter.Average(len(states))
+    for items, cam in states:
+        avg.add(renderer.render(items, cam, OPTIONS).rgba)
+    return avg.result(), None
 
 
-def psnr(a, b) -> float:
-    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
-    return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)
-
-
-def tile_errors(out, items, cam, options: RenderOptions) -> dict:
-    """PSNR and max abs against the reference with and without ET, and the Z error."""
-    got, refs = [], {True: [], False: []}
-    for x, y in TILES:
-        got.append(out.rgba[y:y + TILE, x:x + TILE])
+def tile_errors(rgba, depth, states, windows) -> dict:
+    """PSNR and max abs against the reference (averaged like the frame) with and without
+    ET over the windows, the Z error (one state only), the saturated share."""
+    refs, ref_depth = {True: [], False: []}, []
+    for win in windows:
+        cut = [(reaching(items, cam, win), cam) for items, cam in states]
         for early in (True, False):
-            refs[early].append(reference.render(items, cam, replace(options, early_termination=early),
-                                                window=(x, y, TILE, TILE)))
-    rgba = np.concatenate(got)
+            avg = shutter.Average(len(cut))
+            for items, cam in cut:
+                out = reference.render(items, cam, RenderOptions(early_termination=early), window=win)
+                avg.add(out.rgba)
+            refs[early].append(avg.result().reshape(-1, 4))
+        ref_depth.append(out.depth.reshape(-1))  # the last state's, without ET
+    got = np.concatenate([crop(rgba, w).reshape(-1, 4) for w in windows]).astype(np.float64)
     err = {}
     for early in (True, False):
-        ref = np.concatenate([r.rgba for r in refs[early]])
-        err[early] = (psnr(rgba, ref), float(np.abs(rgba - ref).max()))
-    depth = np.concatenate([out.depth[y:y + TILE, x:x + TILE] for x, y in TILES])
-    ref_depth = np.concatenate([r.depth for r in refs[False]])
-    both = np.isfinite(depth) & np.isfinite(ref_depth)
-    z_err = float("nan")
-    if both.any() and np.isfinite(depth).any():
-        span = float(ref_depth[both].max() - ref_depth[both].min())
-        z_err = float(np.abs(depth[both] - ref_depth[both]).max()) / span
-    return {"et": err[True], "full": err[False], "z": z_err,
-            "saturated": float(np.mean(np.concatenate([r.rgba for r in refs[False]])[..., 3] > 1 - 1e-4))}
+        ref = np.concatenate(refs[early])
+        err["et" if early else "full"] = (psnr(got, ref), float(np.abs(got - ref).max()))
+    err["windows"] = [(psnr(g, r), float(np.abs(g - r).max())) for g, r in zip(
+        np.split(got, np.cumsum([w[2] * w[3] for w in windows])[:-1]), refs[False])]
+    err["saturated"] = float(np.mean(np.concatenate(refs[False])[:, 3] > 1 - 1e-4))
+    err["z"] = float("nan")
+    if depth is not None and len(states) == 1:
+        z = np.concatenate([crop(depth, w).reshape(-1) for w in windows])
+        ref_z = np.concatenate(ref_depth)
+        both = np.isfinite(z) & np.isfinite(ref_z)
+        if both.any():
+            span = float(ref_z[both].max() - ref_z[both].min())
+            err["z"] = float(np.abs(z[both] - ref_z[both]).max()) / span
+    return err
 
 
 def main():
@@ -158,33 +154,38 @@ def main():
 
     start = time.perf_counter()
     items, cam = scene(COUNT, *SIZE)
+    states = {row.label: row.states(items, cam) for row in ROWS}
     before = Before()
     now = {False: OffscreenRenderer(depth_pass=False), True: OffscreenRenderer()}
     try:
         print(f"GL: {now[False].gl_info.get('GL_RENDERER')}; {COUNT:,} splats, SH 2, {SIZE[0]}x{SIZE[1]}")
-        for r in now.values():
-            r.render(items, small_camera(cam), RenderOptions())
+        for row in ROWS:
+            s_items, s_cam = states[row.label][0]
+            now[row.depth].render(s_items, small(s_cam), OPTIONS)
         times = {row.label: {"now": [], "before": []} for row in ROWS}
-        outputs = {}
+        frames = {}
         for _ in range(RUNS):  # interleaved: before and now see the same load
             for row in ROWS:
-                row_cam = row.camera(cam) if row.camera else cam
                 if row.before:
                     t = before.frame(row.before)
                     if t is not None:
                         times[row.label]["before"].append(t)
                 t, c = time.perf_counter(), time.process_time()
-                outputs[row.label] = now[row.depth].render(items, row_cam, row.options)
+                frames[row.label] = render_row(now[row.depth], states[row.label])
                 times[row.label]["now"].append((time.perf_counter() - t, time.process_time() - c))
-        rows = []
-        for row in ROWS:
-            row_cam = row.camera(cam) if row.camera else cam
-            rows.append((row, times[row.label], tile_errors(outputs[row.label], items, row_cam, row.options)))
     finally:
         before.close()
         for r in now.values():
             r.close()
+    rows = []
+    for row in ROWS:
+        rows.append((row, times[row.label], tile_errors(*frames[row.label], states[row.label], row.windows)))
     print_table(rows)
+    lens = lens_figures(frames["+ DOF"][0], items, cam)
+    x, y, w, h = lens["window"]
+    print(f"+ DOF against the lens itself (mean of {LENS_SAMPLES} exact pinhole renders over the aperture), "
+          f"{w}x{h} crop at ({x}, {y}), the arm's edge on the far wall: "
+          + "; ".join(f"{k} {v[0]:.1f} dB, max {v[1]:.1e}" for k, v in lens.items() if k != "window"))
     print(f"\n(whole table: {time.perf_counter() - start:.0f} s; rerun: python -m bench final)")
 
 
@@ -194,26 +195,28 @@ def _ms(samples, which: int) -> float:
 
 def print_table(rows):
     print(f"\nfinal frames, ms = median of {RUNS} (wall; CPU of all threads in brackets); error over "
-          f"{len(TILES)} {TILE}x{TILE} reference tiles")
-    print(f"{'row':10s} {'ms now':>14s} {'ms before':>16s} {'now/before':>12s} {'PSNR ET':>8s} "
-          f"{'PSNR full':>9s} {'max abs ET/full':>17s} {'Z max err':>9s}")
-    colour_ms = colour_cpu = None
+          f"each row's reference windows (TILES: five 128x128; equirect: centre, seam, poles, one more)")
+    print(f"{'row':28s} {'ms now':>13s} {'ms before':>14s} {'now/before':>12s} {'now/colour':>11s} "
+          f"{'PSNR ET':>8s} {'PSNR full':>9s} {'max abs ET/full':>17s} {'Z max err':>9s}")
+    colour = None
     for row, t, e in rows:
-        now, before = _ms(t["now"], 0), _ms(t["before"], 0)
-        now_cpu, before_cpu = _ms(t["now"], 1), _ms(t["before"], 1)
-        if colour_ms is None:
-            colour_ms, colour_cpu = now, now_cpu
+        now, now_cpu = _ms(t["now"], 0), _ms(t["now"], 1)
+        colour = colour or (now, now_cpu)
+        if t["before"]:
+            before, before_cpu = _ms(t["before"], 0), _ms(t["before"], 1)
+            b, ratio = f"{before:.0f} ({before_cpu:.0f})", f"{now / before:.2f} ({now_cpu / before_cpu:.2f})"
+        else:
+            b, ratio = ("n/a (new)", "-") if row.before is None else ("-", "-")
         z = f"{e['z']:.1e}" if row.depth else "-"
-        b = f"{before:.0f} ({before_cpu:.0f})" if t["before"] else "-"
-        ratio = f"{now / before:.2f} ({now_cpu / before_cpu:.2f})" if t["before"] else "-"
         worst = f"{e['et'][1]:.1e}/{e['full'][1]:.1e}"
-        print(f"{row.label:10s} {f'{now:.0f} ({now_cpu:.0f})':>14s} {b:>16s} {ratio:>12s} "
-              f"{e['et'][0]:8.1f} {e['full'][0]:9.1f} {worst:>17s} {z:>9s}",
-              flush=True)
-    for row, t, e in rows[1:]:
-        print(f"{row.label} / colour (now): {_ms(t['now'], 0) / colour_ms:.2f}x wall, "
-              f"{_ms(t['now'], 1) / colour_cpu:.2f}x CPU")
-    print(f"saturated pixels (T < 1e-4) in the tiles: {100 * rows[0][2]['saturated']:.0f}%")
+        print(f"{row.label:28s} {f'{now:.0f} ({now_cpu:.0f})':>13s} {b:>14s} {ratio:>12s} "
+              f"{f'{now / colour[0]:.2f} ({now_cpu / colour[1]:.2f})':>11s} "
+              f"{e['et'][0]:8.1f} {e['full'][0]:9.1f} {worst:>17s} {z:>9s}", flush=True)
+    print(f"saturated pixels (T < 1e-4) in the colour row's tiles: {100 * rows[0][2]['saturated']:.0f}%")
+    for row, _, e in rows:
+        if row.window_names:
+            print(f"{row.label} per window, PSNR / max abs against the reference without ET: " + "; ".join(
+                f"{n} {p:.1f} dB / {m:.1e}" for n, (p, m) in zip(row.window_names, e["windows"])))
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ import numpy as np
 from addon.core.formats import read, write
 from addon.core.formats.ply import write_ply
 from addon.core.formats.synth import random_splats
+from bench.common import median_s
 
 TESTDATA = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "testdata"
 PEER_ENV = "SPLATLINE_SPLAT_TRANSFORM"
@@ -46,15 +47,6 @@ def run_splat_transform(cmd: list, *args) -> None:
     proc = subprocess.run([*cmd, "-w", "-q", *map(str, args)], capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError(f"splat-transform {' '.join(map(str, args))} failed: {proc.stderr[-2000:]}")
-
-
-def timed(fn, runs: int):
-    times = []
-    for _ in range(runs):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
 
 
 def peak_bytes(fn) -> int:
@@ -113,13 +105,13 @@ def main(argv=()) -> None:
         path = pathlib.Path(tmp) / "bench.ply"
         write_ply(path, random_splats(args.count, 3))
         size = os.path.getsize(path)
-        rows = [("np.fromfile of the bytes (floor)", timed(lambda: np.fromfile(path, np.uint8), args.runs), None)]
-        ours = timed(lambda: read(path), args.runs)
+        rows = [("np.fromfile of the bytes (floor)", median_s(lambda: np.fromfile(path, np.uint8), args.runs), None)]
+        ours = median_s(lambda: read(path), args.runs)
         rows.append(("splatline read() (decode + validate)", ours, peak_bytes(lambda: read(path))))
         blender = blender_ply_import(path)
         if blender is not None:
             blender()  # warm-up: first operator call initialises Blender's importer
-            rows.append(("blender wm.ply_import (C++)", timed(blender, args.runs), None))
+            rows.append(("blender wm.ply_import (C++)", median_s(blender, args.runs), None))
         print(f"{args.count:,} splats, SH degree 3, {size / 1e6:.0f} MB; median of {args.runs} runs")
         print(f"{'reader':<40} {'seconds':>8} {'peak MB':>8}")
         for name, sec, peak in rows:
@@ -129,7 +121,7 @@ def main(argv=()) -> None:
     print(f"\n{'testdata file':<28} {'splats':>8} {'ms':>8}")
     for f in sorted(TESTDATA.glob("*.*")):
         if f.suffix in (".ply", ".splat", ".spz"):
-            ms = timed(lambda: read(f), args.runs) * 1e3
+            ms = median_s(lambda: read(f), args.runs) * 1e3
             print(f"{f.name:<28} {read(f).count:>8} {ms:8.1f}")
 
     writer_rows(args.writer_runs, args.writer_count, args.peer_timeout)
@@ -213,7 +205,7 @@ def writer_rows(runs: int, count: int = 300_000, timeout: float = 180.0) -> None
         for capture, src, splats in _captures(tmp, count):
             for label, name, options, cli_flags, peer_flags in WRITERS:
                 out = tmp / name
-                ms = timed(lambda: write(out, splats, **options), runs) * 1e3
+                ms = median_s(lambda: write(out, splats, **options), runs) * 1e3
                 size = _size(out)
                 cli_out, peer_out = (tmp / f"cli_{name}", tmp / f"peer_{name}")
                 cli, peer_sec = _cli_pair(src, cli_out, peer_out, cli_flags, peer_flags, runs, timeout, peer)

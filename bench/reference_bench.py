@@ -6,8 +6,6 @@ RUNS runs, with the ratio against the first row (measured in the same run).
 from __future__ import annotations
 
 import pathlib
-import statistics
-import time
 
 import numpy as np
 
@@ -16,6 +14,7 @@ from addon.core.axes import matrix_for
 from addon.core.camera import look_at, simple_camera
 from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
+from bench.common import median_s
 
 RUNS = 3
 GUITAR = pathlib.Path(__file__).resolve().parents[2] / "shared" / "testdata" / "guitar.ply"
@@ -37,12 +36,8 @@ def main() -> None:
     for size in (128, 256):
         for et in (False, True):
             cam = simple_camera(size, size, 50.0, w2c)
-            times = []
-            for _ in range(RUNS):
-                t0 = time.perf_counter()
-                render([item], cam, RenderOptions(early_termination=et))
-                times.append(time.perf_counter() - t0)
-            rows.append((f"{size}x{size}", "on" if et else "off", statistics.median(times)))
+            sec = median_s(lambda: render([item], cam, RenderOptions(early_termination=et)), RUNS)
+            rows.append((f"{size}x{size}", "on" if et else "off", sec))
     base = rows[0][2]
     print(f"reference renderer, guitar ({item.splats.count} splats), median of {RUNS} runs")
     print(f"{'frame':>9} {'early term':>10} {'s/frame':>8} {'x base':>7}")

@@ -18,7 +18,6 @@ orders of magnitude faster, the reference is not.
 from __future__ import annotations
 
 import pathlib
-import statistics
 import time
 
 import numpy as np
@@ -27,20 +26,15 @@ from addon.core import reference
 from addon.core.axes import matrix_for
 from addon.core.camera import Camera, look_at, simple_camera
 from addon.core.formats import read
-from addon.core.project import project
+from addon.core.formats.synth import shell_splats
 from addon.core.scene import RenderItem, RenderOptions
-from addon.core.splats import SplatSet
+from bench.common import median_ms, psnr, reaching
 
 RUNS = 5
 TESTDATA = pathlib.Path(__file__).resolve().parents[2] / "shared" / "testdata"
 GUITAR_SIZE = (320, 480)
 MILLION_SIZE = (256, 256)   # GL timing frame
 MILLION_CROP = (64, 64)     # error frame: the centre crop (reference time is for it)
-
-
-def psnr(a, b) -> float:
-    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
-    return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)
 
 
 # -- scenes -------------------------------------------------------------------------------
@@ -61,20 +55,9 @@ def guitar_scene():
 
 def shell_object(n: int, seed: int, centre, radius: float) -> RenderItem:
     """A noisy sphere shell of small splats with degree-3 view-dependent colour."""
-    rng = np.random.default_rng(seed)
-    s = SplatSet.allocate(n, 3)
-    d = rng.normal(size=(n, 3))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    s.positions[:] = d * radius * (1 + rng.normal(0, 0.02, (n, 1)))
-    s.scales[:] = np.exp(rng.normal(np.log(radius * 0.012), 0.4, (n, 3)))
-    q = rng.normal(size=(n, 4))
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.beta(2, 1, n)
-    s.sh_dc[:] = d * 0.8 + rng.normal(0, 0.3, (n, 3))
-    s.sh_rest[:] = rng.normal(0, 0.15, s.sh_rest.shape)
     world = np.eye(4)
     world[:3, 3] = centre
-    return RenderItem(s, world=world, key=(f"shell{seed}", 0))
+    return RenderItem(shell_splats(n, 3, seed, radius=radius), world=world, key=(f"shell{seed}", 0))
 
 
 def million_scene(n: int = 1_000_000):
@@ -87,30 +70,6 @@ def million_scene(n: int = 1_000_000):
     crop = Camera(full.world_to_camera, cw, ch, full.fx, full.fy, full.cx - x0, full.cy - y0,
                   full.near, full.far)
     return items, full, crop
-
-
-def touching(items, cam):
-    """The items cut down to the splats whose quad (the exact footprint, no antialiasing)
-    can reach cam's frame: the others add nothing to its pixels in any renderer."""
-    out = []
-    for item in items:
-        p = project(item, cam, antialiased=False)
-        u, v, r = p.means2d[:, 0], p.means2d[:, 1], p.radius
-        keep = p.valid & (u + r >= 0) & (u - r <= cam.width) & (v + r >= 0) & (v - r <= cam.height)
-        out.append(RenderItem(item.splats.subset(keep), item.world, item.splat_scale, item.opacity_scale,
-                              item.sh_degree, item.color_matrix, None))
-    return out
-
-
-# -- measuring ----------------------------------------------------------------------------
-def median_ms(fn, runs: int = RUNS) -> float:
-    fn()  # warm-up: uploads, shader compilation
-    times = []
-    for _ in range(runs):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return 1000.0 * statistics.median(times)
 
 
 def with_degree(items, degree):
@@ -165,7 +124,7 @@ def measure(items, time_cam, err_cam, renderers: dict, extra: bool, err_items=No
         err_scene = with_degree(err_items, degree) if degree is not None else err_items
         img = r.render(err_scene, err_cam, options).rgba
         ref = ref_for(options, degree)
-        ms = median_ms(lambda: r.render(scene, time_cam, options))
+        ms = median_ms(lambda: r.render(scene, time_cam, options), RUNS)
         out.append((label, psnr(img, ref.rgba), float(np.abs(img - ref.rgba).max()), ms))
     return out
 
@@ -198,7 +157,7 @@ def main():
         items, time_cam, err_cam = million_scene()
         w, h = MILLION_SIZE
         cw, ch = MILLION_CROP
-        near = touching(items, err_cam)
+        near = reaching(items, err_cam, (0, 0, err_cam.width, err_cam.height), margin=0.0)
         kept = sum(i.splats.count for i in near)
         print_table(f"generated, 1,000,000 splats in 4 objects, SH 3; gl ms = median of {RUNS} on the "
                     f"full {w}x{h} frame (no depth-pass and fallback rows, to keep the bench short); error on "

@@ -37,6 +37,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from bench import viewport_quality  # noqa: E402  (after the path set-up)
+from bench.common import median_ms  # noqa: E402
 
 SIZES = (100_000, 1_000_000, 3_000_000)
 FRAMES = {"still": 15, "orbit": 15, "orbit-bg": 7, "data": 5}
@@ -118,12 +119,7 @@ def _draw_call_ms(item, proj, repeats: int = 3) -> tuple[float, float]:
 
 def _argsort_ms(n: int, repeats: int = 3) -> float:
     depth = np.random.default_rng(2).normal(5.0, 1.0, n).astype(np.float32)
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        np.argsort(depth)
-        times.append(time.perf_counter() - start)
-    return 1e3 * statistics.median(times)
+    return median_ms(lambda: np.argsort(depth), repeats, warm_up=False)
 
 
 def main(argv=()) -> None:

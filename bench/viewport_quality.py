@@ -14,10 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.common import psnr
+
 TESTDATA = Path(__file__).resolve().parents[1].parent / "shared" / "testdata"
-def _psnr(a, b) -> float:
-    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
-    return math.inf if mse == 0 else 10.0 * math.log10(1.0 / mse)
 
 
 def _guitar():
@@ -74,7 +73,7 @@ def quality() -> list[tuple[str, float, float, float]]:
         drawn = draw_camera(items, cam, renderer=renderer)
         renderer.close()
         ref = reference.render(items, cam, RenderOptions()).rgba
-        rows.append((name, _psnr(drawn, ref), float(np.abs(drawn - ref).max()), float((ref[..., 3] > 0.1).mean())))
+        rows.append((name, psnr(drawn, ref), float(np.abs(drawn - ref).max()), float((ref[..., 3] > 0.1).mean())))
     return rows
 
 

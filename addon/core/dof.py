@@ -12,7 +12,7 @@ Gaussian convolved with that disk; the renderers use the Gaussian of the same
 variance: Sigma' + diag(fx^2, fy^2) (R (1/d - 1/F))^2 / 4 (d: the centre's depth),
 with opacity scaled to keep the splat's integral (its energy), as gsplat's low-pass
 compensation does. A splat at the focus distance is untouched. What this leaves out
-(measured in bench/camera_features_bench.py): the disk is not a Gaussian, the shift varies
+(measured in bench/final_frame_bench.py): the disk is not a Gaussian, the shift varies
 with depth across one splat, and compositing the average is not averaging composites
 (occlusion seen from different lens points).
 Deterministic: no sampling. Perspective cameras only (Blender's orthographic and

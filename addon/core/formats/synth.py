@@ -42,6 +42,21 @@ def random_splats(n: int, degree: int = 3, seed: int = 0, *, centre=(0.0, 0.0, 0
     return s
 
 
+def shell_splats(n: int, degree: int = 3, seed: int = 0, *, radius: float = 1.0,
+                 thickness: float = 0.02, size: float = 0.012) -> SplatSet:
+    """random_splats on a noisy sphere shell about the origin: `radius`, relative radial
+    noise `thickness` (sd), log scales about log(size * radius), and a DC colour that
+    follows the direction (so the shell is not grey noise from every side)."""
+    s = random_splats(n, degree, seed, spread=1.0, log_scale=float(np.log(size * radius)),
+                      dc=0.3, rest=0.15)
+    d = s.positions.astype(np.float64)  # isotropic normal draws: uniform directions
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
+    noise = np.random.default_rng((seed, 1)).normal(0.0, thickness, (n, 1))
+    s.positions[:] = d * radius * (1.0 + noise)
+    s.sh_dc[:] += 0.8 * d
+    return s
+
+
 def write_ply_variant(path, splats: SplatSet, encoding: str = "<", prop_type: str = "float",
                       order=None, normals: bool = True, extra=()) -> np.ndarray:
     """Write INRIA records as a PLY with the given layout; returns the raw records written.

@@ -11,8 +11,8 @@ uniform uint u_visible;  // splats in the frame's order
 uniform uint u_first;    // front-to-back rank of this batch's first splat
 
 #ifdef SL_SATURATION_MAP
-// Early termination (gl_saturation_map.comp): a splat whose quad covers only saturated
-// pixels is dropped here, before the rasterizer visits its pixels.
+// Early termination (gl_saturation_map.comp): a splat whose footprint covers only
+// saturated pixels is dropped here, before the rasterizer visits its pixels.
 layout(std430, binding = 8) readonly buffer Saturation { uint sat_flags[]; };
 uniform int u_sat_levels;  // 0: no map yet (first batch, or early termination off)
 uniform uint u_sat_offset[SL_SATURATION_MAP];
@@ -23,8 +23,9 @@ bool sat_cell(int level, uvec2 c)
     return sat_flags[u_sat_offset[level] + c.y * u_sat_size[level].x + c.x] != 0u;
 }
 
-// every pixel within `extent` (half-size of the quad's bounding box; one pixel of slack
-// each side) is saturated; checked at the finest level where that box spans <= 4x4 cells
+// every pixel within `extent` (half-size of the footprint's bounding box; one pixel of
+// slack each side) is saturated; checked at the finest level where that box spans <= 8x8
+// cells (the loop stops at the first unsaturated cell, so drawn splats read few)
 bool saturated(vec2 centre, vec2 extent)
 {
     if (u_sat_levels == 0) return false;
@@ -34,7 +35,7 @@ bool saturated(vec2 centre, vec2 extent)
     uvec2 a = uvec2(lo), b = uvec2(hi);
     for (int k = 0; k < u_sat_levels; k++) {
         uvec2 ca = a >> uint(2 + k), cb = b >> uint(2 + k);
-        if (cb.x - ca.x > 3u || cb.y - ca.y > 3u) continue;
+        if (cb.x - ca.x > 7u || cb.y - ca.y > 7u) continue;
         for (uint y = ca.y; y <= cb.y; y++)
             for (uint x = ca.x; x <= cb.x; x++)
                 if (!sat_cell(k, uvec2(x, y))) return false;
@@ -66,6 +67,21 @@ mat2 ellipse_box(vec3 conic, float opacity, float radius)
     return mat2(minor_dir * minor, vec2(-minor_dir.y, minor_dir.x) * radius);
 }
 
+#ifdef SL_SATURATION_MAP
+// Half-size of the axis-aligned box of the alpha = 1/255 ellipse, r sqrt(diag(conic^-1)),
+// padded like ellipse_box; it holds every pixel the quad can keep, capped or not (the
+// uncapped cut is the larger), and for a tilted long ellipse it is far smaller than the
+// box around its rectangle. Where the conic is near singular its determinant carries a
+// relative float32 error ~ 1e-7 a c / det, so there the rectangle's box stands.
+vec2 footprint_box(vec3 conic, float opacity, vec2 quad_box)
+{
+    float det = conic.x * conic.z - conic.y * conic.y;
+    if (!(det > 1e-3 * conic.x * conic.z)) return quad_box;
+    vec2 half_size = sl_extent_sigma(opacity, false) * sqrt(vec2(conic.z, conic.x) / det);
+    return min(quad_box, half_size * 1.001 + 1e-3);
+}
+#endif
+
 flat out vec2 v_centre;
 flat out vec3 v_conic;
 flat out vec4 v_colour;  // rgb, opacity
@@ -82,10 +98,10 @@ void main()
     vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1)) * 2.0 - 1.0;
     bool tight = !u_capped_extent && r1.y < 2.0 * max(u_tile.z, u_tile.w);
     // the rectangle around the alpha = 1/255 ellipse along its axes: same pixels as the
-    // square (the fragment stage drops alpha < 1/255), far fewer visited
+    // square (the fragment stage adds nothing below 1/255), far fewer visited
     mat2 axes = tight ? ellipse_box(v_conic, r1.w, r1.y) : mat2(r1.y);
 #ifdef SL_SATURATION_MAP
-    if (saturated(r0.xy, abs(axes[0]) + abs(axes[1]))) {
+    if (saturated(r0.xy, footprint_box(v_conic, r1.w, abs(axes[0]) + abs(axes[1])))) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn
         return;
     }

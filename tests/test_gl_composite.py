@@ -176,6 +176,41 @@ def test_tight_quads_keep_the_footprint_of_needles(renderer):
     assert np.maximum(out, ref)[only].max(initial=0.0) < 1.01 / 255
 
 
+def tilted_needles(depth: float = 6.0, count: int = 8):
+    """Needles behind layers()'s walls, tilted 45 degrees, centred at column ~32 of
+    layers_camera() (saturated there) with their 1/255 tips reaching column ~11, inside
+    the unsaturated band on the left: only their tips' pixels need drawing."""
+    s = SplatSet.allocate(count, 0)
+    f = 48.0 / np.tan(np.radians(30.0))  # layers_camera's focal length in pixels
+    rows = np.linspace(12.0, 60.0, count)
+    s.positions[:] = np.column_stack([np.full(count, (32.0 - 48.0) * depth / f),
+                                      (36.0 - rows) * depth / f, np.full(count, -depth)])
+    sigma = 30.0 / np.sqrt(2.0 * np.log(255 * 0.9)) * depth / f  # 1/255 cut at 30 px
+    s.scales[:] = (sigma, 0.02 * sigma, 1e-4)
+    half = np.radians(45.0) / 2.0
+    s.rotations[:] = (np.cos(half), 0.0, 0.0, np.sin(half))
+    s.opacities[:] = 0.9
+    s.sh_dc[:] = (np.array([0.9, 0.2, 0.1]) - 0.5) / C0
+    return RenderItem(s, key=("tilted needles", depth, count))
+
+
+def test_saturation_culling_keeps_tips_that_reach_unsaturated_pixels(renderer):
+    """The vertex stage drops a splat when every pixel in its footprint's box is saturated;
+    tilted needles lying mostly over saturated pixels, with only their tips in the
+    unsaturated band, must still be drawn there (a box smaller than their alpha >= 1/255
+    ellipse's would drop them whole)."""
+    walls, cam = layers(), layers_camera()
+    items = [walls, tilted_needles()]
+    out = renderer.render(items, cam, RenderOptions())
+    assert renderer.stats["saturation_passes"] > 0
+    full = renderer.render(items, cam, RenderOptions(early_termination=False))
+    without = renderer.render([walls], cam, RenderOptions(early_termination=False))
+    band = (slice(None), slice(0, 18))  # columns 0-17 never saturate
+    assert np.abs(full.rgba[band] - without.rgba[band]).max() > 1e-3  # tips: 10x the ET bound
+    diff = np.abs(out.rgba.astype(np.float64) - full.rgba)
+    assert diff.max() < 1e-4 * max(1.0, float(full.rgba.max()))
+
+
 def test_glsl_early_termination_threshold_is_the_references():
     """The shaders' SL_T_STOP twins core/reference.py's T_STOP."""
     import re

@@ -143,8 +143,7 @@ def counts(items, cam) -> np.ndarray:
     return out
 
 
-def main():
-    runs = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+def main(runs: int = 3):
     items, cam = scene(COUNT, *SIZE)
     samples = timings(items, cam, runs)
     full = statistics.median(s[1] for s in samples["full"])
@@ -160,4 +159,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)

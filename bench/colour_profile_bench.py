@@ -30,7 +30,8 @@ import numpy as np
 
 from addon.core.scene import RenderOptions
 from addon.gl import shaders
-from bench.final_frame_bench import COUNT, SIZE, small_camera
+from bench.final_frame_bench import COUNT, SIZE
+from bench.final_frame_rows import small as small_camera
 from bench.playbot_scene import scene
 
 V, F, MARK = "gl_splat.vert", "gl_splat.frag", "gl_saturate.frag"

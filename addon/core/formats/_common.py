@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import secrets
 import stat
@@ -127,6 +128,17 @@ def check_budget(path, count: int, rest_floats: int, max_splats=None) -> None:
             path, f"holds {count} splats, more than the default splat budget of {avail // per_splat}: "
                   f"what fits in the {avail / 2**30:.1f} GiB of available memory at about {per_splat} "
                   f"bytes per splat; raise it with max_splats / --max-splats")
+
+
+def json_object(path, text, what: str) -> dict:
+    """Parse `text` as a JSON object; anything else is the file's one error."""
+    try:
+        doc = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise SplatFormatError(path, f"{what} is not JSON: {exc}") from None
+    if not isinstance(doc, dict):
+        raise SplatFormatError(path, f"{what} is not a JSON object")
+    return doc
 
 
 def sigmoid_(x: np.ndarray) -> np.ndarray:

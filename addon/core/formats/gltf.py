@@ -20,7 +20,6 @@ than adding a fourth axis convention: a .glb and the .ply it came from then read
 from __future__ import annotations
 
 import base64
-import json
 import os
 import struct
 from urllib.parse import unquote
@@ -28,8 +27,8 @@ from urllib.parse import unquote
 import numpy as np
 
 from ..errors import SplatFormatError
-from ..splats import AXES_RDF, SplatSet, sh_coeff_count
-from ._common import check_budget, file_size, normalize_quats_
+from ..splats import AXES_RDF, SplatSet
+from ._common import check_budget, file_size, json_object, normalize_quats_
 
 EXT = "KHR_gaussian_splatting"
 GLB_MAGIC = b"glTF"
@@ -90,13 +89,7 @@ def _load(path):
             raise SplatFormatError(path, f"glTF JSON is {size} bytes, more than {MAX_JSON}")
         else:
             text, binary = head + f.read(), None
-    try:
-        doc = json.loads(text)
-    except (ValueError, RecursionError) as exc:
-        raise SplatFormatError(path, f"glTF JSON is not valid: {exc}") from None
-    if not isinstance(doc, dict):
-        raise SplatFormatError(path, "glTF JSON is not an object")
-    return doc, binary
+    return json_object(path, text, "glTF JSON"), binary
 
 
 def _item(path, doc, key, index, what):

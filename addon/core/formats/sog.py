@@ -18,7 +18,6 @@ decodes of the same files (testdata *_sog.peer.ply, tests/test_formats_sog.py).
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import tempfile
@@ -28,7 +27,7 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count
-from ._common import check_budget, file_size, normalize_quats_
+from ._common import check_budget, file_size, json_object, normalize_quats_
 from .webp import read_rgba
 
 MAX_SPLATS = 1 << 28          # WebP's 16383 x 16383 texel ceiling
@@ -151,12 +150,7 @@ def _int_field(path, obj, key, lo, hi, where="") -> int:
 
 
 def parse_meta(path, raw: bytes) -> dict:
-    try:
-        meta = json.loads(raw)
-    except (ValueError, RecursionError) as exc:
-        raise SplatFormatError(path, f"meta.json is not JSON: {exc}") from None
-    if not isinstance(meta, dict):
-        raise SplatFormatError(path, "meta.json is not a JSON object")
+    meta = json_object(path, raw, "meta.json")
     if "version" not in meta:
         raise SplatFormatError(path, "SOG v1 (meta.json without a version) is not supported; "
                                      "re-export it as SOG v2")

@@ -110,14 +110,18 @@ class FrameState:
         self.stats["cpu_sorts"] += 1
         return a["order"]
 
-    def _gpu_prepare(self, items, camera, options):
-        """Upload, preprocess and sort with compute shaders; bind the frame's records."""
+    def _project(self, items, camera, options) -> tuple[int, int]:
+        """Upload (cached) and preprocess: returns (record slots, visible count)."""
         self.cache.begin_frame()
         objects = [self.cache.get(item) for item in items]
-        self.cache.retain({item.key for item in items if item.key is not None})
-        n = sum(obj.count for obj in objects) * slots_per_splat(camera)  # record slots
+        n = sum(obj.count for obj in objects) * slots_per_splat(camera)
         self._ensure(max(n, 1))
-        visible = self._preprocess(items, objects, camera, options) if n else 0
+        return n, (self._preprocess(items, objects, camera, options) if n else 0)
+
+    def _gpu_prepare(self, items, camera, options):
+        """Upload, preprocess and sort with compute shaders; bind the frame's records."""
+        n, visible = self._project(items, camera, options)
+        self.cache.retain({item.key for item in items if item.key is not None})
         order = self._sort(n, options) if visible else self.arrays["order"]
         a = self.arrays
         for binding, buf in ((B_ORDER, order), (B_REC0, a["rec0"]), (B_REC1, a["rec1"]), (B_REC2, a["rec2"])):
@@ -182,14 +186,10 @@ class FrameState:
     def preprocess_records(self, items, camera, options) -> dict:
         """Run only the upload and preprocess stages and read their output back, for tests
         that pin the compute shader to core/project.py: (N, 4) float32 rec0, rec1, rec2 and
-        the (N,) sort depth, in item order. Culled splats hold rec1 = 0, depth +inf (their
-        rec0 and rec2 are left as they were)."""
-        self.cache.begin_frame()
-        objects = [self.cache.get(item) for item in items]
-        n = sum(obj.count for obj in objects)
-        self._ensure(max(n, 1))
-        if n:
-            self._preprocess(items, objects, camera, options)
+        the (N,) sort depth, in item order (an equirect camera's seam copies follow, one
+        block of N per copy). Culled splats hold rec1 = 0, depth +inf (their rec0 and rec2
+        are left as they were)."""
+        n, _ = self._project(items, camera, options)
         out = {k: np.frombuffer(self.arrays[k].read(size=16 * n), np.float32).reshape(n, 4).copy()
                for k in ("rec0", "rec1", "rec2")}
         out["depth"] = np.frombuffer(self.arrays["depth"].read(size=4 * n), np.float32).copy()

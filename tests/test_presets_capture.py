@@ -47,13 +47,14 @@ def test_sweep_reveal_shows_every_splat_at_its_own_opacity(bpy_empty, testdata, 
     bpy = bpy_empty
     obj = place(bpy, testdata, capture, transform)
     first, last = _span(_apply(bpy, obj, "sweep_reveal"))
-    own = own_item(bpy, obj, last).splats.opacities
+    own_splats = own_item(bpy, obj, last).splats
+    own = own_splats.opacities
     start = item_at(bpy, obj.name_full, first).splats.opacities
     end = item_at(bpy, obj.name_full, last).splats
     assert start.sum() / own.sum() < 0.01
     shown = np.isclose(end.opacities, own, rtol=1e-6, atol=0)
     assert shown.all(), f"{shown.mean():.1%} of splats at their own opacity"
-    np.testing.assert_array_equal(end.scales, own_item(bpy, obj, last).splats.scales)
+    np.testing.assert_array_equal(end.scales, own_splats.scales)
     # It sweeps up the world's Z: halfway, the shown splats sit lower than the hidden ones.
     half = item_at(bpy, obj.name_full, 0.5 * (first + last))
     z = world_positions(half)[:, 2]

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from addon.core import reference
-from addon.core.camera import look_at
-from engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
+from engine_scene import add_camera, add_splats, read_exr_parts, set_output, setup_render
 from gl_scenes import psnr
 
 PANO_POINTS = [(3.0, 1.0, 0.5), (-2.0, -2.0, 1.5), (0.5, 0.1, 4.0), (1.0, 3.0, -1.0)]

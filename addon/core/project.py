@@ -211,3 +211,11 @@ def camera_in_object(local_to_camera: np.ndarray) -> tuple[np.ndarray, np.ndarra
         forward = inv @ np.array([0.0, 0.0, -1.0])
         forward = forward / np.linalg.norm(forward)
     return eye, forward
+
+
+def split_float(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """float64 values as float32 (hi, lo) with hi + lo close to x in float64: how the
+    shaders take the camera centre without losing precision far from the origin."""
+    x = np.asarray(x, np.float64)
+    hi = x.astype(np.float32)
+    return hi, (x - hi.astype(np.float64)).astype(np.float32)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core import equirect
 from ..core.camera import Camera
-from ..core.project import camera_in_object, j_clamp_bounds
+from ..core.project import camera_in_object, j_clamp_bounds, split_float
 from ..core.scene import RenderItem
 
 
@@ -56,12 +56,6 @@ def slots_per_splat(camera: Camera) -> int:
     return 3 if camera.equirect else 1
 
 
-def split_float(x: np.ndarray) -> tuple[tuple, tuple]:
-    hi = np.asarray(x, np.float64).astype(np.float32)
-    lo = (np.asarray(x, np.float64) - hi.astype(np.float64)).astype(np.float32)
-    return tuple(float(v) for v in hi), tuple(float(v) for v in lo)
-
-
 def depth_origin(item: RenderItem, camera: Camera) -> float:
     """View depth of the item's origin (float64): the sort anchor of a frame."""
     return float(-(np.asarray(camera.world_to_camera, np.float64) @ np.asarray(item.world, np.float64))[2, 3])
@@ -73,7 +67,7 @@ def item_uniforms(item: RenderItem, camera: Camera, anchor: float = 0.0) -> dict
     o2c = np.asarray(camera.world_to_camera, np.float64) @ world
     cam_from_local = o2c[:3, :3]
     eye, fwd = camera_in_object(o2c)
-    hi, lo = split_float(eye)
+    hi, lo = (tuple(float(v) for v in part) for part in split_float(eye))
     cm = np.asarray(item.color_matrix, np.float64)
     return {
         "u_cam_from_local": cam_from_local,

@@ -27,7 +27,7 @@ import numpy as np
 
 from ...core.camera import Camera
 from ...core.clip_space import camera_from_projection
-from ...core.project import camera_in_object, j_clamp_bounds
+from ...core.project import camera_in_object, j_clamp_bounds, split_float
 from ...core.splats import SplatSet, sh_coeff_count
 
 WIDTH = 4096          # texels per row of every data texture
@@ -138,8 +138,7 @@ def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: 
     first: the object's first splat in the concatenated data (exact in float to 2^24)."""
     m = np.asarray(local_to_camera, np.float64)
     eye, forward = camera_in_object(m)
-    eye_hi = eye.astype(np.float32)
-    eye_lo = (eye - eye_hi.astype(np.float64)).astype(np.float32)
+    eye_hi, eye_lo = split_float(eye)
     rows = np.zeros((OBJECT_TEXELS, 4), np.float32)
     rows[0:3, :3] = m[:3, :3].T  # columns of cam_from_local
     rows[0, 3], rows[1, 3], rows[2, 3] = splat_scale, opacity_scale, sh_degree

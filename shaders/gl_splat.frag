@@ -6,21 +6,17 @@
 #if __VERSION__ >= 420
 layout(early_fragment_tests) in;  // saturated pixels (depth-marked) skip this shader
 #endif
-flat in vec2 v_centre;
-flat in vec3 v_conic;
+noperspective in vec2 v_w;
 flat in vec4 v_colour;
 flat in float v_depth;
-
-uniform vec4 u_tile;
 
 layout(location = 0) out vec4 frag;
 layout(location = 1) out vec4 frag_z;
 
 void main()
 {
-    // pixel centre in frame pixels, top-left origin (the tile is rendered flipped)
-    vec2 pix = vec2(u_tile.x + gl_FragCoord.x, u_tile.y + u_tile.w - gl_FragCoord.y);
-    float alpha = sl_alpha(pix - v_centre, v_conic, v_colour.a);
+    // v_w was interpolated at this pixel's centre: sl_alpha there, one dot product
+    float alpha = sl_alpha_whitened(v_w, v_colour.a);
     // below 1/255 the splat adds exactly nothing: a zero source under "under" blending
     // leaves the target as it was (dst + 0), the same pixels as a discard would, and on
     // llvmpipe ~15% cheaper per frame than a discard (no per-fragment kill mask)

@@ -51,11 +51,6 @@ uniform bool u_capped_extent;  // quads cut at 3 sigma: keep the square (its cor
 // pixels where alpha >= 1/255. The long half-axis is the square's radius (it is that
 // ellipse's, from the same eigenvalue); the short one is padded for the float32 error
 // of the axis direction (angle <= 8 eps |conic| / gap) and never exceeds the radius.
-// Nor is it thinner than MAX_ASPECT: the fragment stage gets the whitened offset
-// interpolated across the quad, and a rasteriser's plane equations for a thin tilted
-// triangle lose about eps * aspect of it (on llvmpipe an uncapped needle at an equirect
-// pole fell to 76 dB against the reference; capped at 32 it is 108 dB, at no cost in time).
-const float MAX_ASPECT = 32.0;
 mat2 ellipse_box(vec3 conic, float opacity, float radius)
 {
     float a = conic.x, b = conic.y, c = conic.z;
@@ -68,10 +63,11 @@ mat2 ellipse_box(vec3 conic, float opacity, float radius)
     if (!(len > 0.0) || !(angle < 0.05)) return mat2(radius, 0.0, 0.0, radius);
     minor_dir /= len;
     float minor = sl_extent_sigma(opacity, false) * inversesqrt(mu_max);
-    minor = min(radius, max(minor * 1.001 + radius * angle + 1e-3, radius / MAX_ASPECT));
+    minor = min(radius, minor * 1.001 + radius * angle + 1e-3);
     return mat2(minor_dir * minor, vec2(-minor_dir.y, minor_dir.x) * radius);
 }
 
+#ifdef SL_SATURATION_MAP
 // Half-size of the axis-aligned box of the alpha = 1/255 ellipse, r sqrt(diag(conic^-1)),
 // padded like ellipse_box; it holds every pixel the quad can keep, capped or not (the
 // uncapped cut is the larger), and for a tilted long ellipse it is far smaller than the
@@ -84,11 +80,13 @@ vec2 footprint_box(vec3 conic, float opacity, vec2 quad_box)
     vec2 half_size = sl_extent_sigma(opacity, false) * sqrt(vec2(conic.z, conic.x) / det);
     return min(quad_box, half_size * 1.001 + 1e-3);
 }
+#endif
 
-
-// the offset from the centre, whitened (sl_whiten): affine in the pixel position, so
-// the rasteriser interpolates it from the corners
-noperspective out vec2 v_w;
+// the offset from the centre, whitened (sl_whiten): affine in the pixel position, so the
+// rasteriser interpolates it from the corners. "smooth", not "noperspective" (w is 1, so
+// both are linear): Mesa 22.3's llvmpipe interpolates noperspective outputs wrongly on
+// triangles its clipper cuts, as a long quad crossing the frame's edge (tests/test_gl_whiten.py)
+smooth out vec2 v_w;
 flat out vec4 v_colour;  // rgb, opacity
 flat out float v_depth;  // view depth of the centre (Z pass)
 
@@ -111,18 +109,8 @@ void main()
     }
 #endif
     vec2 pix = r0.xy + axes * corner;
-    // the square quad is clamped to the tile (+1 px) so huge quads cost no more than it,
-    // and uncapped to the ellipse's own box too: the whitened offset is interpolated from
-    // the corners, in float32, so the nearer they are to the ellipse the more exact it is
-    if (!tight) {
-        vec2 lo = u_tile.xy - 1.0, hi = u_tile.xy + u_tile.zw + 1.0;
-        if (!u_capped_extent) {
-            vec2 box = footprint_box(conic, r1.w, vec2(r1.y));
-            lo = max(lo, r0.xy - box);
-            hi = min(hi, r0.xy + box);
-        }
-        pix = clamp(pix, lo, hi);
-    }
+    // the square quad is clamped to the tile (+1 px) so huge quads cost no more than it
+    if (!tight) pix = clamp(pix, u_tile.xy - 1.0, u_tile.xy + u_tile.zw + 1.0);
     v_w = sl_whiten(pix - r0.xy, conic);
     vec2 ndc = (pix - u_tile.xy) / u_tile.zw * 2.0 - 1.0;
     // z = 0.5 (window depth 0.75): behind the saturation mark (0.5), in front of the clear

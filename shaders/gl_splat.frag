@@ -6,7 +6,7 @@
 #if __VERSION__ >= 420
 layout(early_fragment_tests) in;  // saturated pixels (depth-marked) skip this shader
 #endif
-smooth in vec2 v_w;
+noperspective in vec2 v_w;
 flat in vec4 v_colour;
 flat in float v_depth;
 

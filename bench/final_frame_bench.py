@@ -11,7 +11,8 @@ Columns:
   their average. "Before" is the renderer of BEFORE (the commit before issue 14's
   batching and Z pass: back-to-front single draw, search depth pass) taken from git into a
   temporary folder and run in a worker process on the same scene, its frames interleaved
-  with this tree's so both see the same machine load; it has no DOF, motion blur or
+  with this tree's (which of the two goes first alternates run by run) so both see the
+  same machine load; it has no DOF, motion blur or
   panorama ("n/a (new)"). now / colour: the row against this tree's colour row, same run.
 - PSNR / max abs: premultiplied RGBA against the float64 reference (core/reference.py)
   with the same feature (motion blur: the same average of reference sub-frames), with
@@ -164,15 +165,18 @@ def main():
             now[row.depth].render(s_items, small(s_cam), OPTIONS)
         times = {row.label: {"now": [], "before": []} for row in ROWS}
         frames = {}
-        for _ in range(RUNS):  # interleaved: before and now see the same load
+        for run in range(RUNS):  # interleaved: before and now see the same load
             for row in ROWS:
-                if row.before:
-                    t = before.frame(row.before)
-                    if t is not None:
-                        times[row.label]["before"].append(t)
-                t, c = time.perf_counter(), time.process_time()
-                frames[row.label] = render_row(now[row.depth], states[row.label])
-                times[row.label]["now"].append((time.perf_counter() - t, time.process_time() - c))
+                # which goes first alternates: the first of two frames tends to be slower
+                for which in (("before", "now") if run % 2 == 0 else ("now", "before")):
+                    if which == "before" and row.before:
+                        t = before.frame(row.before)
+                        if t is not None:
+                            times[row.label]["before"].append(t)
+                    elif which == "now":
+                        t, c = time.perf_counter(), time.process_time()
+                        frames[row.label] = render_row(now[row.depth], states[row.label])
+                        times[row.label]["now"].append((time.perf_counter() - t, time.process_time() - c))
     finally:
         before.close()
         for r in now.values():

@@ -16,11 +16,13 @@ starting at the next row):
 - all rejected: after the first batch the mark pass marks every pixel, so all later
   fragments fail the early depth test: the cost of a depth-rejected fragment.
 - ET off: the full composite.
-- ten batches: the batch schedule before 2026-11-24, doubling from 1/64 of the splats to
-  1/8 (ten marking passes where the renderer's now makes three).
-Then counts from one counting frame (atomic counters, framebuffer fetch where the GL has
-GL_EXT_shader_framebuffer_fetch): fragments past the depth test, those at alpha >= 1/255,
-and of those the ones landing on a pixel already at T < 1e-4 (batch-granular ET's excess).
+- ten batches: the batch schedule before commit 4d5c3c9, doubling from 1/64 of the splats
+  to 1/8 (ten marking passes where the renderer's now makes three).
+Then the share of the frame's 4x4-pixel cells saturated at each marking pass, with the
+renderer's batches and with ten, and counts from one counting frame (atomic counters,
+framebuffer fetch where the GL has GL_EXT_shader_framebuffer_fetch): fragments past the
+depth test, those at alpha >= 1/255, and of those the ones landing on a pixel already at
+T < 1e-4 (batch-granular ET's excess).
 The instrumented copies are this bench's only: it patches the shader text it loads.
 """
 from __future__ import annotations
@@ -166,6 +168,28 @@ def counts(items, cam) -> np.ndarray:
     return out
 
 
+def saturation_timeline(items, cam, plan=None) -> list[float]:
+    """Share of the frame's 4x4-pixel cells saturated (the map's level 0) when each
+    marking pass runs, under the renderer's batch schedule or `plan`."""
+    r = renderer_for((), items, cam)
+    shares = []
+    build = composite.Compositor._build_map
+
+    def recording(self, t, w, h):
+        build(self, t, w, h)
+        offset, cols, rows = t["levels"][0]
+        flags = np.frombuffer(t["flags"].read(size=4 * cols * rows, offset=4 * offset), np.uint32)
+        shares.append(float((flags != 0).mean()))
+    composite.Compositor._build_map, plain = recording, composite.batches
+    composite.batches = plan or plain
+    try:
+        r.render(items, cam, RenderOptions())
+    finally:
+        composite.Compositor._build_map, composite.batches = build, plain
+        r.close()
+    return shares
+
+
 def main(runs: int = 3):
     items, cam = scene(COUNT, *SIZE)
     samples = timings(items, cam, runs)
@@ -174,6 +198,9 @@ def main(runs: int = 3):
     for name, rows in samples.items():
         cpu, wall = statistics.median(s[1] for s in rows), statistics.median(s[0] for s in rows)
         print(f"  {name:15s} {1000 * cpu:7.0f} ms CPU ({cpu / full:4.2f} of full) {1000 * wall:7.0f} ms wall")
+    for label, plan in (("", None), (" (ten batches)", ten_batches)):
+        shares = saturation_timeline(items, cam, plan)
+        print(f"4x4 cells saturated at each marking pass{label}: " + ", ".join(f"{x:.0%}" for x in shares))
     past, kept, late = counts(items, cam)
     pixels = SIZE[0] * SIZE[1]
     print(f"fragments past the depth test: {past / 1e6:.0f} M ({past / pixels:.0f} per pixel), "

@@ -30,7 +30,8 @@ class Progress:
         self.times.append(seconds)
         frame = scene.frame_current
         path = scene.render.frame_path(frame=frame)
-        print(f"frame {frame} ({len(self.times)}/{self.total})  {seconds:.2f} s  {path}", flush=True)
+        # milliseconds: small frames take a few (two decimals printed some as 0.00 s)
+        print(f"frame {frame} ({len(self.times)}/{self.total})  {seconds:.3f} s  {path}", flush=True)
 
     def __enter__(self):
         for name, fn in self._handlers:

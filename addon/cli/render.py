@@ -240,5 +240,5 @@ def run(args) -> int:
         return 130
     median = statistics.median(times) if times else 0.0
     print(f"done: {len(times)} frame(s) in {time.perf_counter() - start:.2f} s, "
-          f"median {median:.2f} s per frame", flush=True)
+          f"median {median:.3f} s per frame", flush=True)
     return 0

@@ -48,7 +48,6 @@ SATURATED = "if (texelFetch(u_colour, ivec2(gl_FragCoord.xy), 0).a <= 1.0 - SL_T
 KEEP = "    alpha = alpha < SL_ALPHA_MIN ? 0.0 : alpha;"
 
 
-
 def ten_batches(visible: int, early_termination: bool):
     """The schedule the renderer had before: doubling from 1/64 up to 1/8 of the splats."""
     out, first, size = [], 0, max(composite.MIN_BATCH, visible // 64)

@@ -48,8 +48,9 @@ def batches(visible: int, early_termination: bool) -> list[tuple[int, int]]:
     because every batch after the first costs a full-tile marking pass, a map build and a
     wait for the GL (about 13 ms at 1080p on llvmpipe), and a late batch is a slab of the
     depth order whose pixels, where they saturate, mostly do so within it, so its pass
-    culls little. On the final-frame bench 1/16, 1/8, 1/4 and the rest take 0.81-0.90x the
-    wall time of ten batches doubling from 1/64 to 1/8 (`python -m bench colour`)."""
+    culls little. On the final-frame bench 1/16, 1/8, 1/4 and the rest take 0.92x the wall
+    time (0.96x the CPU) of ten batches doubling from 1/64 to 1/8, A/B in both orders
+    (`python -m bench colour`, row "ten batches")."""
     if not early_termination or visible <= MIN_BATCH:
         return [(0, visible)] if visible else []
     out, first = [], 0

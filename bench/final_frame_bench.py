@@ -73,21 +73,28 @@ for line in sys.stdin:
 """
 
 
+def extract_before(folder: str) -> bool:
+    """BEFORE's addon/ and shaders/ from git into folder; False (said) where git can't."""
+    try:
+        archive = subprocess.run(["git", "-C", str(REPO), "archive", BEFORE, "addon", "shaders"],
+                                 capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as exc:
+        print(f"(no before column: git archive {BEFORE[:8]} failed: {exc})")
+        return False
+    with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+        safe = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
+        tar.extractall(folder, **safe)
+    return True
+
+
 class Before:
     """The BEFORE commit's renderer in a worker process (None where git can't give it)."""
 
     def __init__(self):
         self.proc = None
         self.dir = tempfile.TemporaryDirectory(prefix="splatline-before-")
-        try:
-            archive = subprocess.run(["git", "-C", str(REPO), "archive", BEFORE, "addon", "shaders"],
-                                     capture_output=True, check=True).stdout
-        except (OSError, subprocess.CalledProcessError) as exc:
-            print(f"(no before column: git archive {BEFORE[:8]} failed: {exc})")
+        if not extract_before(self.dir.name):
             return
-        with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
-            safe = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
-            tar.extractall(self.dir.name, **safe)
         self.proc = subprocess.Popen(
             [sys.executable, "-c", WORKER, self.dir.name, str(REPO), str(COUNT), *map(str, SIZE)],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)

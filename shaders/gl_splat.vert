@@ -106,8 +106,9 @@ void main()
     bool tight = !u_capped_extent && all(greaterThanEqual(r0.xy - half_box, lo))
         && all(lessThanEqual(r0.xy + half_box, hi));
     if (!tight) axes = mat2(r1.y);
+    vec2 box = footprint_box(conic, r1.w, abs(axes[0]) + abs(axes[1]));
 #ifdef SL_SATURATION_MAP
-    if (saturated(r0.xy, footprint_box(conic, r1.w, abs(axes[0]) + abs(axes[1])))) {
+    if (saturated(r0.xy, box)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn
         return;
     }
@@ -115,9 +116,8 @@ void main()
     vec2 pix = r0.xy + axes * corner;
     if (!tight) {
         // otherwise the square, cut to the tile (so huge quads cost no more than it) and,
-        // uncapped, to the ellipse's own box
+        // uncapped, to the ellipse's own box (box above: here from the square's (r, r))
         if (!u_capped_extent) {
-            vec2 box = footprint_box(conic, r1.w, vec2(r1.y));
             lo = max(lo, r0.xy - box);
             hi = min(hi, r0.xy + box);
         }

@@ -12,7 +12,7 @@ from addon.core import reference
 from addon.core.camera import equirect_camera, look_at, simple_camera
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
-from addon.gl import OffscreenRenderer, shaders
+from addon.gl import shaders
 from gl_scenes import psnr
 
 EPS = np.finfo(np.float32).eps
@@ -33,10 +33,9 @@ void main()
 
 
 @pytest.fixture(scope="module")
-def run_probe():
-    r = OffscreenRenderer()
+def run_probe(renderer):
+    r = renderer
     if not r.uses_compute:
-        r.close()
         pytest.skip("needs GL 4.3 compute shaders")
     ctx = r._worker.ctx
     cs = r._worker.call(ctx.compute_shader, "#version 430\n" + shaders.read(shaders.MATH) + PROBE)
@@ -61,7 +60,6 @@ def run_probe():
 
     yield probe
     r._worker.call(cs.release)
-    r.close()
 
 
 def conics(rng, n: int, max_aspect: float) -> np.ndarray:
@@ -119,7 +117,7 @@ def test_whitened_alpha_is_sl_alpha(run_probe):
     assert np.allclose(out[keep, 2], want[keep], rtol=1e-5, atol=1e-7)
 
 
-def test_a_long_quad_cut_by_the_clipper_keeps_its_footprint():
+def test_a_long_quad_cut_by_the_clipper_keeps_its_footprint(renderer):
     """A needle right under an equirect camera, half a degree off the pole: its footprint
     is thousands of pixels long and crosses the frame's edges (with its seam copies). The
     draw stage keeps every quad inside the tile, so the rasteriser's clipper cuts none:
@@ -135,14 +133,13 @@ def test_a_long_quad_cut_by_the_clipper_keeps_its_footprint():
     width, height, rows = 1920, 1080, 67
     camera = equirect_camera(look_at((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)), width, height)
     options = RenderOptions(early_termination=False)
-    with OffscreenRenderer() as r:
-        got = r.render([item], camera, options).rgba[height - rows:]
+    got = renderer.render([item], camera, options).rgba[height - rows:]
     want = reference.render([item], camera, options, window=(0, height - rows, width, rows)).rgba
     assert (want[..., 3] > 0.1).mean() > 0.03
     assert psnr(got, want) >= 60.0
 
 
-def test_sharp_needles_far_from_the_origin_keep_their_accuracy():
+def test_sharp_needles_far_from_the_origin_keep_their_accuracy(renderer):
     """The interpolated offset's float32 rounding grows with a splat's sharpness and its
     distance from the frame's origin (the rasteriser's plane equations start there): 3,000
     needles 0.1-0.5 px wide over a 1080p frame, checked on its far corner. Measured 98.6 dB
@@ -164,8 +161,7 @@ def test_sharp_needles_far_from_the_origin_keep_their_accuracy():
     s.sh_dc[:] = rng.normal(0.0, 1.0, (n, 3))
     item = RenderItem(s, key=("sharp needles",))
     options = RenderOptions(early_termination=False)
-    with OffscreenRenderer() as r:
-        got = r.render([item], camera, options).rgba[700:, 1400:]
+    got = renderer.render([item], camera, options).rgba[700:, 1400:]
     want = reference.render([item], camera, options, window=(1400, 700, 520, 380)).rgba
     assert (want[..., 3] > 0.1).mean() > 0.1
     assert psnr(got, want) >= 95.0

@@ -23,7 +23,8 @@ import sys
 
 import numpy as np
 
-from addon.core.project import project
+from addon.core.project import extent_sigmas, project
+from bench.common import cell_blocks
 from bench.final_frame_bench import COUNT, SIZE
 from bench.playbot_scene import scene
 
@@ -47,7 +48,7 @@ def front_to_back(items, cam) -> dict:
 def pairs(s: dict, cell: int, cols: int, rows: int):
     """(splat, cell column, cell row) for every cell the splat's 1/255 box touches."""
     det = s["A"] * s["C"] - s["B"] ** 2
-    e = np.sqrt(2 * np.log(np.maximum(255 * s["o"], 1.0)))
+    e = extent_sigmas(s["o"])
     hx, hy = e * np.sqrt(s["C"] / det), e * np.sqrt(s["A"] / det)
     lo_x, hi_x = np.floor((s["x"] - hx) / cell), np.floor((s["x"] + hx) / cell)
     lo_y, hi_y = np.floor((s["y"] - hy) / cell), np.floor((s["y"] + hy) / cell)
@@ -55,10 +56,7 @@ def pairs(s: dict, cell: int, cols: int, rows: int):
     x0, x1 = np.clip(lo_x, 0, cols - 1).astype(np.int64), np.clip(hi_x, 0, cols - 1).astype(np.int64)
     y0, y1 = np.clip(lo_y, 0, rows - 1).astype(np.int64), np.clip(hi_y, 0, rows - 1).astype(np.int64)
     nx, ny = np.where(inside, x1 - x0 + 1, 0), np.where(inside, y1 - y0 + 1, 0)
-    count = nx * ny
-    sid = np.repeat(np.arange(len(count)), count)
-    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    return sid, x0[sid] + k % nx[sid], y0[sid] + k // nx[sid]
+    return cell_blocks(x0, y0, nx, ny)
 
 
 def cell_alphas(s: dict, sid, cx, cy, cell: int):

@@ -28,7 +28,7 @@ import numpy as np
 from addon.core.project import extent_sigmas
 from addon.core.scene import RenderOptions
 from addon.gl import OffscreenRenderer, shaders
-from bench.common import psnr
+from bench.common import cell_blocks, psnr
 from bench.final_frame_bench import COUNT, SIZE
 from bench.playbot_scene import scene
 
@@ -107,10 +107,8 @@ def bin_tiles(rec0, rec1, front_to_back, width, height):
     y1 = np.clip(np.floor(cy + ey - 0.5), -1, height - 1).astype(np.int64)
     nx = np.where(x1 >= 0, x1 // TILE - x0 + 1, 0).clip(0)
     ny = np.where(y1 >= 0, y1 // TILE - y0 + 1, 0).clip(0)
-    count = nx * ny
-    splat = np.repeat(np.arange(len(count)), count)
-    local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    tile = (y0[splat] + local // nx[splat]) * tiles_x + x0[splat] + local % nx[splat]
+    splat, column, row = cell_blocks(x0, y0, nx, ny)
+    tile = row * tiles_x + column
     order = np.argsort(tile.astype(np.uint16 if tiles_x * tiles_y < 65536 else np.uint32), kind="stable")
     ranges = np.zeros(tiles_x * tiles_y + 1, np.uint32)
     ranges[1:] = np.cumsum(np.bincount(tile, minlength=tiles_x * tiles_y))

@@ -157,6 +157,30 @@ def tile_errors(rgba, depth, states, windows) -> dict:
     return err
 
 
+def timed_frames(before, now: dict, states: dict):
+    """RUNS frames of every row, interleaved so that before and now see the same load, the
+    two taking turns going first (the first of two frames tends to be slower): (times per
+    row, this tree's last frame per row)."""
+    times = {row.label: {"now": [], "before": []} for row in ROWS}
+    frames = {}
+
+    def time_before(row):
+        t = before.frame(row.before) if row.before else None
+        if t is not None:
+            times[row.label]["before"].append(t)
+
+    def time_now(row):
+        t, c = time.perf_counter(), time.process_time()
+        frames[row.label] = render_row(now[row.depth], states[row.label])
+        times[row.label]["now"].append((time.perf_counter() - t, time.process_time() - c))
+
+    for run in range(RUNS):
+        for row in ROWS:
+            for step in ((time_before, time_now) if run % 2 == 0 else (time_now, time_before)):
+                step(row)
+    return times, frames
+
+
 def main():
     from addon.gl import OffscreenRenderer
 
@@ -170,20 +194,7 @@ def main():
         for row in ROWS:
             s_items, s_cam = states[row.label][0]
             now[row.depth].render(s_items, small(s_cam), OPTIONS)
-        times = {row.label: {"now": [], "before": []} for row in ROWS}
-        frames = {}
-        for run in range(RUNS):  # interleaved: before and now see the same load
-            for row in ROWS:
-                # which goes first alternates: the first of two frames tends to be slower
-                for which in (("before", "now") if run % 2 == 0 else ("now", "before")):
-                    if which == "before" and row.before:
-                        t = before.frame(row.before)
-                        if t is not None:
-                            times[row.label]["before"].append(t)
-                    elif which == "now":
-                        t, c = time.perf_counter(), time.process_time()
-                        frames[row.label] = render_row(now[row.depth], states[row.label])
-                        times[row.label]["now"].append((time.perf_counter() - t, time.process_time() - c))
+        times, frames = timed_frames(before, now, states)
     finally:
         before.close()
         for r in now.values():

@@ -13,6 +13,7 @@ the runs of the remaining frames; now and before take turns going first.
 """
 from __future__ import annotations
 
+import json
 import pathlib
 import re
 import statistics
@@ -40,7 +41,7 @@ def make_blend(folder: pathlib.Path) -> pathlib.Path:
     subprocess.run([sys.executable, "-m", "addon", "import", str(folder / "playbot.ply"),
                     "--blend", str(blend), "--camera", "front"], cwd=REPO, check=True,
                    capture_output=True)
-    subprocess.run([sys.executable, "-c", CAMERA, str(blend), repr(cam.world_to_camera.tolist()),
+    subprocess.run([sys.executable, "-c", CAMERA, str(blend), json.dumps(cam.world_to_camera.tolist()),
                     str(2 * np.degrees(np.arctan(cam.width / (2 * cam.fx))))],
                    cwd=REPO, check=True, capture_output=True)
     return blend
@@ -48,11 +49,11 @@ def make_blend(folder: pathlib.Path) -> pathlib.Path:
 
 # in a fresh process: bpy, the add-on registered (the .blend's object holds its data)
 CAMERA = r"""
-import math, sys
+import json, math, sys
 import bpy, mathutils
 from addon import register
 register()
-path, world_to_camera, fov_x = sys.argv[1], eval(sys.argv[2]), float(sys.argv[3])
+path, world_to_camera, fov_x = sys.argv[1], json.loads(sys.argv[2]), float(sys.argv[3])
 bpy.ops.wm.open_mainfile(filepath=path)
 scene = bpy.context.scene
 capture = next(o for o in scene.objects if o.type != "CAMERA")

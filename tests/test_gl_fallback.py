@@ -70,7 +70,7 @@ def test_frames_past_the_storage_limit_fall_back_by_themselves(fallback, caplog)
         with caplog.at_level("WARNING"):
             first = r.render(big, cam).rgba
             second = r.render(big, cam).rgba
-            r.render(small, cam)
+            r.render(small, cam, RenderOptions(gpu_sort=True))
         assert r.uses_compute and r.stats["gpu_sorts"] >= 1
         assert len(r.last_order()) > 0  # the small frame came back to the compute path
     assert np.array_equal(first, want) and np.array_equal(second, want)

@@ -23,6 +23,7 @@ from addon.core.formats import read
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sort import back_to_front, depth_keys
 from addon.gl import OffscreenRenderer
+from addon.gl.sorting import sorts_on_gpu
 from gl_scenes import assert_depth_matches, framing_camera, psnr, random_splats, two_objects, world_for
 
 MIN_PSNR = 60.0
@@ -97,6 +98,24 @@ def test_gpu_and_cpu_sort_agree_exactly(renderer, bits):
     np.testing.assert_array_equal(gpu_order, cpu_order)
     np.testing.assert_array_equal(gpu.rgba, cpu.rgba)
     np.testing.assert_array_equal(gpu.depth, cpu.depth)
+
+
+def test_the_default_sort_is_the_cpu_one_on_a_software_gl_and_the_gpu_one_elsewhere(renderer):
+    """RenderOptions.gpu_sort=None: numpy sorts where the GL runs on the CPU (as here,
+    llvmpipe), the compute passes on a real GPU; either way the same frame."""
+    assert not sorts_on_gpu(None, "llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert not sorts_on_gpu(None, "Microsoft Basic Render Driver")
+    assert sorts_on_gpu(None, "NVIDIA H100 80GB HBM3/PCIe/SSE2")
+    assert sorts_on_gpu(True, "llvmpipe") and not sorts_on_gpu(False, "NVIDIA H100")
+    items = two_objects(3000)
+    cam = framing_camera(items[0], 96, 64)
+    software = not sorts_on_gpu(None, renderer.gl_info["GL_RENDERER"])
+    before = dict(renderer.stats)
+    default = renderer.render(items, cam, RenderOptions())
+    sorted_on = "cpu_sorts" if software else "gpu_sorts"
+    assert renderer.stats[sorted_on] == before[sorted_on] + 1
+    forced = renderer.render(items, cam, RenderOptions(gpu_sort=software))
+    np.testing.assert_array_equal(default.rgba, forced.rgba)
 
 
 def test_gpu_radix_sort_matches_numpy_on_depths(renderer):

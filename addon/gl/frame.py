@@ -11,7 +11,7 @@ from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
 from .composite import Compositor
 from .fallback import RecordTextures, cpu_records
-from .sorting import RadixSorter, cpu_order
+from .sorting import RadixSorter, cpu_order, sorts_on_gpu
 from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform, slots_per_splat
 from .upload import UploadCache
 
@@ -33,6 +33,7 @@ class FrameState:
         self.stats = stats
         self.cache = UploadCache(ctx, stats)
         self.sorter = RadixSorter(ctx) if self.compute else None
+        self.gl_renderer = ctx.info.get("GL_RENDERER", "")
         self.record_textures = None if self.compute else RecordTextures(ctx)
         self.compositor = Compositor(ctx, records)
         self.preprocess = ctx.compute_shader(shaders.source("gl_preprocess.comp")) if self.compute else None
@@ -99,7 +100,7 @@ class FrameState:
     def _sort(self, n: int, options: RenderOptions):
         """Leaves the back-to-front order of the visible splats in a buffer; returns it."""
         a = self.arrays
-        if options.gpu_sort:
+        if sorts_on_gpu(options.gpu_sort, self.gl_renderer):
             self.sorter.make_keys(n, options.key_bits, a["depth"], self.range, a["keys"], a["vals"])
             self.sorter.sort(n, options.key_bits, a["keys"], a["vals"], a["keys2"], a["vals2"])
             self.stats["gpu_sorts"] += 1

@@ -6,7 +6,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 8) buffer Saturation { uint flags[]; };
 
-uniform sampler2D u_colour;  // the tile's colour target (GL rows, bottom-up)
+uniform sampler2D u_colour;  // the tile's colour target (rows top-down, as the flags')
 uniform int u_level;
 uniform uvec2 u_size;        // this level's cells
 uniform uvec2 u_below_size;  // level k - 1's cells (k > 0)
@@ -25,10 +25,8 @@ void main()
         for (int j = 0; j < 4; j++) {
             for (int i = 0; i < 4; i++) {
                 ivec2 p = ivec2(c) * 4 + ivec2(i, j);
-                // flags count rows top-down, the texture bottom-up
-                ivec2 texel = ivec2(p.x, u_tile_size.y - 1 - p.y);
                 if (p.x < u_tile_size.x && p.y < u_tile_size.y
-                        && texelFetch(u_colour, texel, 0).a <= 1.0 - SL_T_STOP) all_done = 0u;
+                        && texelFetch(u_colour, p, 0).a <= 1.0 - SL_T_STOP) all_done = 0u;
             }
         }
     } else {

@@ -1,6 +1,7 @@
 // Offscreen renderer, stage "draw": one instanced screen-aligned quad per sorted splat,
 // FRONT TO BACK: instance i of a batch draws front-to-back rank u_first + i (the order
-// buffer itself is back to front). Pixels are top-left-origin, y down.
+// buffer itself is back to front). Pixels are top-left-origin, y down, and so are the
+// targets' rows: the frame's top row is GL's row 0, so a read-back needs no flip.
 // GL 4.3: records in storage buffers, order[k] from the sort. GL 3.3 fallback
 // (SL_TEXTURE_RECORDS): records already sorted on the CPU, in RGBA32F textures.
 #include_records
@@ -130,5 +131,5 @@ void main()
     v_w = sl_whiten(pix - r0.xy, conic);
     vec2 ndc = (pix - u_tile.xy) / u_tile.zw * 2.0 - 1.0;
     // z = 0.5 (window depth 0.75): behind the saturation mark (0.5), in front of the clear
-    gl_Position = vec4(ndc.x, -ndc.y, 0.5, 1.0);
+    gl_Position = vec4(ndc.x, ndc.y, 0.5, 1.0);
 }

@@ -135,13 +135,15 @@ class Compositor:
 
     @staticmethod
     def _read(fbo, w: int, h: int, want_z: bool):
-        """The tile's colour and, with want_z, the weighted depth sum divided by alpha."""
-        rgba = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
-        rgba = rgba.reshape(h, w, 4)[::-1]  # GL rows are bottom-up
+        """The tile's colour and, with want_z, the weighted depth sum divided by alpha.
+        The draw stage puts the top row first, so the targets' rows read straight into
+        the arrays (on llvmpipe a 1080p read_into takes ~3 ms; read, flip and copy ~20)."""
+        rgba = np.empty((h, w, 4), np.float32)
+        fbo.read_into(rgba, components=4, dtype="f4")
         if not want_z:
             return rgba, np.full((h, w), np.inf, np.float32)
-        weighted = np.frombuffer(fbo.read(components=1, attachment=1, dtype="f4"), np.float32)
-        weighted = weighted.reshape(h, w)[::-1]
+        weighted = np.empty((h, w), np.float32)
+        fbo.read_into(weighted, components=1, attachment=1, dtype="f4")
         alpha = rgba[..., 3]
         with np.errstate(divide="ignore", invalid="ignore"):
             depth = np.where(alpha >= DEPTH_FROM_ALPHA, weighted / alpha, np.inf)

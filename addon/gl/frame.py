@@ -141,20 +141,32 @@ class FrameState:
             self.record_textures.bind(self.compositor.draw)
             self.stats["cpu_sorts"] += 1
             order, n = None, sum(item.splats.count for item in items)
-        rgba = np.empty((camera.height, camera.width, 4), np.float32)
-        depth = np.empty((camera.height, camera.width), np.float32)
-        for tile in tiles(camera.width, camera.height):
-            x0, y0, w, h = tile
-            out = (slice(y0, y0 + h), slice(x0, x0 + w))
-            rgba[out], depth[out] = self.compositor.run(tile, visible, options.early_termination,
-                                                        self.want_depth, options.capped_extent)
-            self.stats["splat_draws"] += self.compositor.splat_draws
-            self.stats["saturation_passes"] += self.compositor.mark_passes
+        rgba, depth = self._composite(camera, visible, options)
         behind(rgba, options.background)
         self.stats["frames"] += 1
         self.stats["resident_objects"] = self.cache.resident
         self.last = (order, visible, n)
         return RenderOutput(rgba, depth)
+
+    def _composite(self, camera: Camera, visible: int, options: RenderOptions):
+        """The frame's (rgba, depth), tile by tile; a frame of one tile is its arrays."""
+        frame_tiles = list(tiles(camera.width, camera.height))
+        if len(frame_tiles) == 1:
+            return self._run_tile(frame_tiles[0], visible, options)
+        rgba = np.empty((camera.height, camera.width, 4), np.float32)
+        depth = np.empty((camera.height, camera.width), np.float32)
+        for tile in frame_tiles:
+            x0, y0, w, h = tile
+            out = (slice(y0, y0 + h), slice(x0, x0 + w))
+            rgba[out], depth[out] = self._run_tile(tile, visible, options)
+        return rgba, depth
+
+    def _run_tile(self, tile, visible: int, options: RenderOptions):
+        out = self.compositor.run(tile, visible, options.early_termination, self.want_depth,
+                                  options.capped_extent)
+        self.stats["splat_draws"] += self.compositor.splat_draws
+        self.stats["saturation_passes"] += self.compositor.mark_passes
+        return out
 
     def last_order(self) -> np.ndarray:
         """Global indices (concatenated items) of the last frame, back to front."""

@@ -41,7 +41,7 @@ from bench.playbot_scene import scene
 
 V, F, MARK = "gl_splat.vert", "gl_splat.frag", "gl_saturate.frag"
 OUTSIDE = "gl_Position = vec4(2.0, 2.0, 2.0, 1.0)"
-POSITION = "gl_Position = vec4(ndc.x, -ndc.y, 0.5, 1.0);"
+POSITION = "gl_Position = vec4(ndc.x, ndc.y, 0.5, 1.0);"
 FIRST = "    uint k = u_visible - 1u - (u_first + uint(gl_InstanceID));"
 CORNERS = "    vec2 pix = r0.xy + axes * corner;"
 SATURATED = "if (texelFetch(u_colour, ivec2(gl_FragCoord.xy), 0).a <= 1.0 - SL_T_STOP) discard;"

@@ -9,8 +9,8 @@ their shader runs. A pixel so stops at the end of the batch in which it saturate
 at the exact splat, which moves it by at most the 1e-4 of light left behind it.
 
 The Z pass is one more RGBA32F attachment blended the same way: its red channel sums
-T_i alpha_i z_i. Divided by the accumulated alpha it is the alpha-weighted depth
-RenderOutput defines; same draws, no extra pass.
+T_i alpha_i z_i (green and blue are masked off). Divided by the accumulated alpha it is
+the alpha-weighted depth RenderOutput defines; same draws, no extra pass.
 """
 from __future__ import annotations
 
@@ -96,6 +96,10 @@ class Compositor:
                 t["levels"] = levels
                 t["flags"] = self.ctx.buffer(reserve=4 * (levels[-1][0] + levels[-1][1] * levels[-1][2]))
             t["plain"].depth_mask = t["with_z"].depth_mask = False
+            # the Z target uses red (T alpha z) and alpha (T alpha) only: masking green and
+            # blue spares their blending, 0.84x the time of a Z frame on llvmpipe, the same
+            # pixels and depths bit for bit
+            t["with_z"].color_mask = ((True, True, True, True), (True, False, False, True))
             self.targets[(w, h)] = t
         return self.targets[(w, h)]
 

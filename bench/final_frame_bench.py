@@ -2,6 +2,7 @@
 ~500,000-splat degree-2 capture (bench/playbot_scene.py), now and before, in one run.
 
     python -m bench final        (or make bench)
+    python -m bench.final_frame_bench colour [runs]   (the colour row's timing alone)
 
 One row per entry of final_frame_rows.ROWS: colour, + Z, + DOF, + motion blur, equirect.
 Columns:
@@ -157,11 +158,11 @@ def tile_errors(rgba, depth, states, windows) -> dict:
     return err
 
 
-def timed_frames(before, now: dict, states: dict):
-    """RUNS frames of every row, interleaved so that before and now see the same load, the
-    two taking turns going first (the first of two frames tends to be slower): (times per
-    row, this tree's last frame per row)."""
-    times = {row.label: {"now": [], "before": []} for row in ROWS}
+def timed_frames(before, now: dict, states: dict, rows=ROWS, runs: int = RUNS):
+    """`runs` frames of every row, interleaved so that before and now see the same load,
+    the two taking turns going first (the first of two frames tends to be slower): (times
+    per row, this tree's last frame per row)."""
+    times = {row.label: {"now": [], "before": []} for row in rows}
     frames = {}
 
     def time_before(row):
@@ -174,8 +175,8 @@ def timed_frames(before, now: dict, states: dict):
         frames[row.label] = render_row(now[row.depth], states[row.label])
         times[row.label]["now"].append((time.perf_counter() - t, time.process_time() - c))
 
-    for run in range(RUNS):
-        for row in ROWS:
+    for run in range(runs):
+        for row in rows:
             for step in ((time_before, time_now) if run % 2 == 0 else (time_now, time_before)):
                 step(row)
     return times, frames
@@ -241,5 +242,34 @@ def print_table(rows):
                 f"{n} {p:.1f} dB / {m:.1e}" for n, (p, m) in zip(row.window_names, e["windows"])))
 
 
+def colour_only(runs: int):
+    """The colour row's now / before alone, over more frames than the table's (its error
+    columns left out): python -m bench.final_frame_bench colour [runs]."""
+    from addon.gl import OffscreenRenderer
+
+    items, cam = scene(COUNT, *SIZE)
+    row = ROWS[0]
+    states = {row.label: row.states(items, cam)}
+    before = Before()
+    now = {False: OffscreenRenderer(depth_pass=False)}
+    try:
+        now[False].render(items, small(cam), OPTIONS)
+        times = timed_frames(before, now, states, (row,), runs)[0][row.label]
+    finally:
+        before.close()
+        now[False].close()
+    if not times["before"]:
+        return
+    ratios = [n[0] / b[0] for n, b in zip(times["now"], times["before"])]
+    print(f"colour, {runs} frames each: now {_ms(times['now'], 0):.0f} ({_ms(times['now'], 1):.0f}) ms, "
+          f"before {_ms(times['before'], 0):.0f} ({_ms(times['before'], 1):.0f}) ms; now / before "
+          f"{_ms(times['now'], 0) / _ms(times['before'], 0):.3f} wall, "
+          f"{_ms(times['now'], 1) / _ms(times['before'], 1):.3f} CPU (medians); "
+          f"frame by frame {min(ratios):.3f}-{max(ratios):.3f} wall")
+
+
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:2] == ["colour"]:
+        colour_only(int(sys.argv[2]) if len(sys.argv) > 2 else 8)
+    else:
+        main()

@@ -80,11 +80,14 @@ def with_degree(items, degree):
 def gl_rows(has_sh: bool, extra: bool):
     """(label, options, SH degree cap or None, renderer kind)."""
     d = RenderOptions()
-    rows = [("gl, GPU sort, 32-bit keys (default)", d, None, "colour")]
+    rows = [("gl, defaults (32-bit keys)", d, None, "colour")]
     if extra:
         rows += [("gl, default + depth pass", d, None, "depth"),
                  ("gl, GL 3.3 fallback (CPU preprocess+sort)", d, None, "fallback")]
-    rows += [("gl, CPU sort", RenderOptions(gpu_sort=False), None, "colour"),
+    # the defaults sort with numpy on a software GL and with compute shaders on a GPU
+    # (gl/sorting.sorts_on_gpu): one row for each, forced
+    rows += [("gl, GPU sort", RenderOptions(gpu_sort=True), None, "colour"),
+             ("gl, CPU sort", RenderOptions(gpu_sort=False), None, "colour"),
              ("gl, 16-bit keys", RenderOptions(key_bits=16), None, "colour"),
              ("gl, antialiased", RenderOptions(antialiased=True), None, "colour"),
              ("gl, capped extent (3 sigma)", RenderOptions(capped_extent=True), None, "colour")]

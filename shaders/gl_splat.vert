@@ -106,8 +106,11 @@ void main()
     vec2 half_box = abs(axes[0]) + abs(axes[1]);
     bool tight = !u_capped_extent && all(greaterThanEqual(r0.xy - half_box, lo))
         && all(lessThanEqual(r0.xy + half_box, hi));
-    if (!tight) axes = mat2(r1.y);
-    vec2 box = footprint_box(conic, r1.w, abs(axes[0]) + abs(axes[1]));
+    if (!tight) {
+        axes = mat2(r1.y);
+        half_box = vec2(r1.y);
+    }
+    vec2 box = footprint_box(conic, r1.w, half_box);
 #ifdef SL_SATURATION_MAP
     if (saturated(r0.xy, box)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn

@@ -19,7 +19,8 @@ from addon.core.camera import simple_camera
 from addon.core.formats import read
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
-from addon.gl import OffscreenRenderer, frame
+from addon.gl import OffscreenRenderer, composite, frame
+from addon.gl.software import is_software
 from gl_scenes import assert_depth_matches, framing_camera, psnr
 
 MIN_PSNR = 60.0
@@ -131,6 +132,31 @@ def test_z_pass_costs_no_extra_draws():
             counts[want] = (r.stats["splat_draws"], r.stats["saturation_passes"])
             assert np.isfinite(out.depth).any() == want
     assert counts[True] == counts[False] and counts[True][0] > 1
+
+
+def test_a_software_gl_draws_each_batch_in_flushed_chunks_with_the_same_pixels(monkeypatch):
+    """On a CPU rasteriser each batch goes out DRAW_CHUNK splats a draw with a glFlush after
+    each (so that llvmpipe rasterises one chunk while it bins the next); the order of the
+    splats is unchanged, so colour and depth are the same bit for bit. A GPU draws each
+    batch in one call and never flushes."""
+    item, cam = layers(), layers_camera()
+    with OffscreenRenderer() as r:
+        software = is_software(r.gl_info["GL_RENDERER"])
+        monkeypatch.setattr(composite, "DRAW_CHUNK", 10**9)
+        whole = r.render([item], cam, RenderOptions())
+        before = dict(r.stats)
+        monkeypatch.setattr(composite, "DRAW_CHUNK", 97)
+        chunked = r.render([item], cam, RenderOptions())
+        batches = r.stats["splat_draws"] - before["splat_draws"]
+        flushes = r.stats["draw_flushes"] - before["draw_flushes"]
+    assert batches == before["splat_draws"] > 2
+    if software:
+        assert before["draw_flushes"] == batches  # one chunk a batch
+        assert flushes > 10 * batches
+    else:
+        assert flushes == before["draw_flushes"] == 0
+    np.testing.assert_array_equal(chunked.rgba, whole.rgba)
+    np.testing.assert_array_equal(chunked.depth, whole.depth)
 
 
 def test_background_goes_behind_after_compositing(renderer):

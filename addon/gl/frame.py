@@ -11,6 +11,7 @@ from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
 from .composite import Compositor
 from .fallback import RecordTextures, cpu_records
+from .software import gl_flush, is_software
 from .sorting import RadixSorter, cpu_order, sorts_on_gpu
 from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform, slots_per_splat
 from .upload import UploadCache
@@ -35,7 +36,7 @@ class FrameState:
         self.sorter = RadixSorter(ctx) if self.compute else None
         self.gl_renderer = ctx.info.get("GL_RENDERER", "")
         self.record_textures = None if self.compute else RecordTextures(ctx)
-        self.compositor = Compositor(ctx, records)
+        self.compositor = Compositor(ctx, records, gl_flush(ctx) if is_software(self.gl_renderer) else None)
         self.preprocess = ctx.compute_shader(shaders.source("gl_preprocess.comp")) if self.compute else None
         self.range = ctx.buffer(reserve=12) if self.compute else None
         self.dummy = ctx.buffer(reserve=16) if self.compute else None
@@ -166,6 +167,7 @@ class FrameState:
                                   options.capped_extent)
         self.stats["splat_draws"] += self.compositor.splat_draws
         self.stats["saturation_passes"] += self.compositor.mark_passes
+        self.stats["draw_flushes"] += self.compositor.flushes
         return out
 
     def last_order(self) -> np.ndarray:

@@ -46,9 +46,10 @@ class OffscreenRenderer:
     both). Matches the reference to ~90-140 dB PSNR (bench/render_bench.py).
 
     stats counts work across frames: frames, geometry_uploads (objects whose splats
-    were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts, splat_draws (draw
-    calls of splats: one per batch), saturation_passes (early-termination marks);
-    resident_objects is how many objects hold GPU buffers after the last frame.
+    were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts, splat_draws (batches of
+    splats drawn), saturation_passes (early-termination marks), draw_flushes (glFlush calls
+    between a batch's chunks, software GL only); resident_objects is how many objects hold
+    GPU buffers after the last frame.
     """
 
     def __init__(self, context_factory=_create_context, depth_pass: bool = True,
@@ -60,7 +61,8 @@ class OffscreenRenderer:
         fallback: CPU preprocess and sort (core/project.py, core/sort.py), GPU draw."""
         self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
                       "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0,
-                      "splat_draws": 0, "saturation_passes": 0, "resident_objects": 0}
+                      "splat_draws": 0, "saturation_passes": 0, "draw_flushes": 0,
+                      "resident_objects": 0}
         self._worker = GLWorker(context_factory)
         from .frame import FrameState
 

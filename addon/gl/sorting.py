@@ -14,12 +14,9 @@ import numpy as np
 
 from ..core.sort import back_to_front
 from . import shaders
+from .software import is_software
 
 BLOCK_SIZE = 2048  # elements per work group in the radix passes
-# GL_RENDERER names of rasterisers that run on the CPU: Mesa's llvmpipe, softpipe and
-# swrast, Google's SwiftShader, Windows' WARP ("Microsoft Basic Render Driver") and
-# Apple's "Apple Software Renderer"
-SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "swiftshader", "basic render", "software renderer")
 B_DEPTH, B_RANGE, B_KEYS, B_VALS, B_HIST, B_KEYS2, B_VALS2 = 6, 7, 8, 9, 10, 11, 12
 
 
@@ -86,8 +83,7 @@ def sorts_on_gpu(choice: bool | None, gl_renderer: str) -> bool:
     llvmpipe: about 90 ms wall against 20 ms, read-back and upload included)."""
     if choice is not None:
         return choice
-    name = gl_renderer.lower()
-    return not any(soft in name for soft in SOFTWARE_GL)
+    return not is_software(gl_renderer)
 
 
 def cpu_order(depth: np.ndarray, bits: int) -> np.ndarray:

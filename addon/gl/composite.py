@@ -70,8 +70,9 @@ class Compositor:
         or None to draw each batch in one call. llvmpipe bins a draw's triangles on the GL
         thread and its raster threads start on a scene only once it is flushed, so a batch
         drawn whole leaves them idle while it is binned; in flushed chunks they rasterise
-        one while the next is binned. Final-frame bench at 1080p: 0.95x the wall time in
-        four A/Bs of 10 frames each (0.98-0.99x the CPU), the same pixels bit for bit."""
+        one while the next is binned. Final-frame bench colour frame at 1080p: 0.92x and
+        0.96x the wall time in two A/Bs of 10 frames each (0.96x and 0.99x the CPU), the
+        same pixels bit for bit."""
         self.ctx = ctx
         self.flush = flush
         # the saturation map needs compute shaders and storage buffers (GL 4.3)

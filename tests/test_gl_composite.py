@@ -55,6 +55,15 @@ def layers_camera(width=96, height=72):
     return simple_camera(width, height, 60.0, np.eye(4), near=0.1, far=100.0)
 
 
+def guitar_with_axes(testdata):
+    """guitar.ply (90,854 splats) with its real (RDF) axes, and a camera framing it."""
+    splats = read(testdata / "guitar.ply")
+    world = np.eye(4)
+    world[:3, :3] = matrix_for(splats.axes)
+    item = RenderItem(splats, world=world, key=("guitar", 0))
+    return item, framing_camera(item, 320, 240, distance=1.1)
+
+
 @pytest.fixture(scope="module")
 def fallback():
     r = OffscreenRenderer(compute=False)  # GL 3.3: no saturation map, the depth marks alone
@@ -110,10 +119,7 @@ def test_z_pass_on_layered_surfaces(renderer, early):
 def test_z_pass_on_a_real_capture_crop(renderer, testdata):
     """guitar.ply with its real (RDF) axes: the Z pass on a 160x120 frame, the reference
     on a 56x48 window of it (the same projection, exactly)."""
-    splats = read(testdata / "guitar.ply")
-    world = np.eye(4)
-    world[:3, :3] = matrix_for(splats.axes)
-    item = RenderItem(splats, world=world, key=("guitar", 0))
+    item, _ = guitar_with_axes(testdata)
     cam = framing_camera(item, 160, 120, distance=1.1)
     out = renderer.render([item], cam, RenderOptions())
     x, y, w, h = 52, 36, 56, 48
@@ -134,12 +140,14 @@ def test_z_pass_costs_no_extra_draws():
     assert counts[True] == counts[False] and counts[True][0] > 1
 
 
-def test_a_software_gl_draws_each_batch_in_flushed_chunks_with_the_same_pixels(monkeypatch):
+@pytest.mark.parametrize("scene", ["layers", "guitar"])
+def test_a_software_gl_draws_each_batch_in_flushed_chunks_with_the_same_pixels(scene, testdata,
+                                                                                monkeypatch):
     """On a CPU rasteriser each batch goes out DRAW_CHUNK splats a draw with a glFlush after
     each (so that llvmpipe rasterises one chunk while it bins the next); the order of the
     splats is unchanged, so colour and depth are the same bit for bit. A GPU draws each
     batch in one call and never flushes."""
-    item, cam = layers(), layers_camera()
+    item, cam = (layers(), layers_camera()) if scene == "layers" else guitar_with_axes(testdata)
     with OffscreenRenderer() as r:
         software = is_software(r.gl_info["GL_RENDERER"])
         monkeypatch.setattr(composite, "DRAW_CHUNK", 10**9)

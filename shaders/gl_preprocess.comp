@@ -7,9 +7,10 @@
 // Needs: splat_math.glsl before this file; #version 430 from the loader.
 layout(local_size_x = 256) in;
 
-layout(std430, binding = 0) readonly buffer Geom { vec4 geom[]; };  // 3 per splat: pos+opacity, scale, quat wxyz
-layout(std430, binding = 1) readonly buffer Dc { float sh_dc[]; };  // 3 per splat
-layout(std430, binding = 2) readonly buffer Rest { float sh_rest[]; };  // 3 * u_rest_count per splat
+layout(std430, binding = 0) readonly buffer Geom { vec4 geom[]; };  // 4 per splat: pos+opacity, scale, quat wxyz, SH DC
+// per splat, its u_rest_count coefficients in groups of four (3 vec4 a group: r g b r | g b
+// r g | b r g b), the last group zero-padded (upload.py pack_rest)
+layout(std430, binding = 2) readonly buffer Rest { vec4 sh_rest[]; };
 layout(std430, binding = 3) writeonly buffer Rec0 { vec4 rec0[]; };  // centre u, v; conic A, B
 layout(std430, binding = 4) writeonly buffer Rec1 { vec4 rec1[]; };  // conic C, radius, depth, opacity
 layout(std430, binding = 5) writeonly buffer Rec2 { vec4 rec2[]; };  // rgb, unused
@@ -41,6 +42,7 @@ uniform bool u_equirect;
 uniform float u_lat_limit;       // equirect: latitude clamp of J (radians)
 uniform float u_period;          // equirect: pixels per full turn of longitude
 uniform uint u_copy_stride;      // equirect: splats in the frame (slot stride of the copies); else 0
+uniform bool u_track_range;      // gather range_bits (the GPU sort's keys need them)
 uniform vec2 u_lens;             // depth of field: aperture radius, 1 / focus distance; (0, 0) = off
 
 // float bits -> uint with the same order (negative floats too), for atomicMin/Max
@@ -50,17 +52,42 @@ uint ordered_bits(float f)
     return (u & 0x80000000u) != 0u ? ~u : (u | 0x80000000u);
 }
 
-vec3 sh_colour(uint i, vec3 dir)
+// the four SH coefficients (rgb each) held in the three vec4 at q
+void rest_group(uint q, out vec3 k0, out vec3 k1, out vec3 k2, out vec3 k3)
 {
-    vec3 dc = vec3(sh_dc[3u * i], sh_dc[3u * i + 1u], sh_dc[3u * i + 2u]);
-    vec3 rest[15];
-    uint n = uint(min(u_rest_count, 15));
-    uint base = i * uint(u_rest_count) * 3u;
-    for (uint k = 0u; k < 15u; k++) {
-        rest[k] = k < n ? vec3(sh_rest[base + 3u * k], sh_rest[base + 3u * k + 1u],
-                               sh_rest[base + 3u * k + 2u]) : vec3(0.0);
-    }
-    return sl_sh_color(dir, u_sh_degree, dc, rest);
+    vec4 a = sh_rest[q], b = sh_rest[q + 1u], c = sh_rest[q + 2u];
+    k0 = a.xyz;
+    k1 = vec3(a.w, b.xy);
+    k2 = vec3(b.zw, c.x);
+    k3 = c.yzw;
+}
+
+// sl_sh_color with the coefficients loaded a group at a time, only for the bands drawn:
+// vec4 loads, because on llvmpipe every scalar load is its own per-lane gather (at
+// degree 2 the 24 of them took a quarter of the preprocess, 500,000 splats at 1080p), and
+// no 15-entry local array, which cost loads of all 15. A band the buffer lacks adds
+// nothing, as there.
+vec3 sh_colour(uint i, vec4 dc, vec3 dir)
+{
+    vec3 result = SL_SH_C0 * dc.xyz;
+    uint have = uint(u_rest_count);
+    if (u_sh_degree < 1 || have < 3u)
+        return result + 0.5;
+    uint q = i * ((have + 3u) / 4u) * 3u;
+    vec3 k0, k1, k2, k3, k4, k5, k6, k7;
+    rest_group(q, k0, k1, k2, k3);
+    result += sl_sh_band1(dir, k0, k1, k2);
+    if (u_sh_degree < 2 || have < 8u)
+        return result + 0.5;
+    rest_group(q + 3u, k4, k5, k6, k7);
+    result += sl_sh_band2(dir, k3, k4, k5, k6, k7);
+    if (u_sh_degree < 3 || have < 15u)
+        return result + 0.5;
+    vec3 k8, k9, k10, k11, k12, k13, k14, pad;
+    rest_group(q + 6u, k8, k9, k10, k11);
+    rest_group(q + 9u, k12, k13, k14, pad);
+    result += sl_sh_band3(dir, k8, k9, k10, k11, k12, k13, k14);
+    return result + 0.5;
 }
 
 void cull_slot(uint g)
@@ -92,6 +119,7 @@ void emit(uint g, vec2 centre, vec3 conic, float radius, float depth, float opac
     rec1[g] = vec4(conic.z, radius, depth, opacity);
     rec2[g] = vec4(rgb, 0.0);
     depth_key_src[g] = sort_depth;
+    if (!u_track_range) return;
     uint bits = ordered_bits(sort_depth);
     atomicMin(range_bits[0], bits);
     atomicMax(range_bits[1], bits);
@@ -103,7 +131,7 @@ void main()
     uint i = gl_GlobalInvocationID.x;
     if (i >= u_count) return;
     uint g = u_base + i;
-    vec4 p = geom[3u * i], s = geom[3u * i + 1u], q = geom[3u * i + 2u];
+    vec4 p = geom[4u * i], s = geom[4u * i + 1u], q = geom[4u * i + 2u];
     float opacity = p.w * u_opacity_scale;
     if (!sl_is_finite3(p.xyz) || !sl_is_finite3(s.xyz) || !sl_quat_ok(q) || !sl_is_finite(opacity)) {
         cull(g);
@@ -138,7 +166,7 @@ void main()
         return;
     }
     vec3 dir = u_ortho ? u_ortho_dir : rel / length(rel);
-    vec3 rgb = sl_grade_color(sh_colour(i, dir), u_color_linear, u_color_offset);
+    vec3 rgb = sl_grade_color(sh_colour(i, geom[4u * i + 3u], dir), u_color_linear, u_color_offset);
     if (!sl_is_finite3(rgb)) { cull(g); return; }
     // Sort on depth minus a per-frame anchor (offset summed in float64 on the CPU): a small
     // object far from the camera keeps its depth differences, which depth itself rounds away.

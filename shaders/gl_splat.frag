@@ -3,9 +3,6 @@
 // dst.a is the accumulated alpha 1 - T and each splat adds T alpha (rgb, 1).
 // Location 1 (the Z pass, where attached) adds T alpha (depth, 0, 0, 1): its red channel
 // ends as sum of T_i alpha_i z_i, the numerator of the alpha-weighted depth.
-#if __VERSION__ >= 420
-layout(early_fragment_tests) in;  // saturated pixels (depth-marked) skip this shader
-#endif
 noperspective in vec2 v_w;
 flat in vec4 v_colour;
 flat in float v_depth;

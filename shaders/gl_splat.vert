@@ -133,6 +133,6 @@ void main()
     }
     v_w = sl_whiten(pix - r0.xy, conic);
     vec2 ndc = (pix - u_tile.xy) / u_tile.zw * 2.0 - 1.0;
-    // z = 0.5 (window depth 0.75): behind the saturation mark (0.5), in front of the clear
+    // z = 0.5 (window depth 0.75): behind GL 3.3's saturation marks (0.5), before the clear
     gl_Position = vec4(ndc.x, ndc.y, 0.5, 1.0);
 }

@@ -184,31 +184,47 @@ float sl_quad_radius(float lambda_max, float opacity, bool capped)
     return sl_extent_sigma(opacity, capped) * sqrt(lambda_max);
 }
 
+// View-dependent colour, band by band: each returns one band's sum over its coefficients
+// (c_k: higher coefficient k for r, g, b). dir: unit vector from the camera to the
+// centre, in the splat object's local frame. A caller that loads coefficients itself
+// (gl_preprocess.comp) calls only the bands it has; sl_sh_color takes them from an array.
+vec3 sl_sh_band1(vec3 dir, vec3 c0, vec3 c1, vec3 c2)
+{
+    return -SL_SH_C1 * dir.y * c0 + SL_SH_C1 * dir.z * c1 - SL_SH_C1 * dir.x * c2;
+}
+
+vec3 sl_sh_band2(vec3 dir, vec3 c3, vec3 c4, vec3 c5, vec3 c6, vec3 c7)
+{
+    float x = dir.x, y = dir.y, z = dir.z;
+    float xx = x * x, yy = y * y, zz = z * z, xy = x * y, yz = y * z, xz = x * z;
+    return SL_SH_C2_0 * xy * c3 + SL_SH_C2_1 * yz * c4 + SL_SH_C2_2 * (2.0 * zz - xx - yy) * c5
+        + SL_SH_C2_3 * xz * c6 + SL_SH_C2_4 * (xx - yy) * c7;
+}
+
+vec3 sl_sh_band3(vec3 dir, vec3 c8, vec3 c9, vec3 c10, vec3 c11, vec3 c12, vec3 c13, vec3 c14)
+{
+    float x = dir.x, y = dir.y, z = dir.z;
+    float xx = x * x, yy = y * y, zz = z * z, xy = x * y;
+    return SL_SH_C3_0 * y * (3.0 * xx - yy) * c8
+        + SL_SH_C3_1 * xy * z * c9
+        + SL_SH_C3_2 * y * (4.0 * zz - xx - yy) * c10
+        + SL_SH_C3_3 * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * c11
+        + SL_SH_C3_4 * x * (4.0 * zz - xx - yy) * c12
+        + SL_SH_C3_5 * z * (xx - yy) * c13
+        + SL_SH_C3_6 * x * (xx - 3.0 * yy) * c14;
+}
+
 // View-dependent colour before the clamp: C0*dc + bands 1..degree + 0.5.
-// dir: unit vector from the camera to the centre, in the splat object's local frame.
 // rest[k]: higher coefficient k (k = 0..14) for r, g, b; only the first (deg+1)^2-1 are read.
 vec3 sl_sh_color(vec3 dir, int degree, vec3 dc, vec3 rest[15])
 {
     vec3 result = SL_SH_C0 * dc;
-    if (degree > 0) {
-        float x = dir.x, y = dir.y, z = dir.z;
-        result += -SL_SH_C1 * y * rest[0] + SL_SH_C1 * z * rest[1] - SL_SH_C1 * x * rest[2];
-        if (degree > 1) {
-            float xx = x * x, yy = y * y, zz = z * z, xy = x * y, yz = y * z, xz = x * z;
-            result += SL_SH_C2_0 * xy * rest[3] + SL_SH_C2_1 * yz * rest[4]
-                + SL_SH_C2_2 * (2.0 * zz - xx - yy) * rest[5]
-                + SL_SH_C2_3 * xz * rest[6] + SL_SH_C2_4 * (xx - yy) * rest[7];
-            if (degree > 2) {
-                result += SL_SH_C3_0 * y * (3.0 * xx - yy) * rest[8]
-                    + SL_SH_C3_1 * xy * z * rest[9]
-                    + SL_SH_C3_2 * y * (4.0 * zz - xx - yy) * rest[10]
-                    + SL_SH_C3_3 * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * rest[11]
-                    + SL_SH_C3_4 * x * (4.0 * zz - xx - yy) * rest[12]
-                    + SL_SH_C3_5 * z * (xx - yy) * rest[13]
-                    + SL_SH_C3_6 * x * (xx - 3.0 * yy) * rest[14];
-            }
-        }
-    }
+    if (degree > 0)
+        result += sl_sh_band1(dir, rest[0], rest[1], rest[2]);
+    if (degree > 1)
+        result += sl_sh_band2(dir, rest[3], rest[4], rest[5], rest[6], rest[7]);
+    if (degree > 2)
+        result += sl_sh_band3(dir, rest[8], rest[9], rest[10], rest[11], rest[12], rest[13], rest[14]);
     return result + 0.5;
 }
 

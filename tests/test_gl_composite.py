@@ -143,28 +143,42 @@ def test_z_pass_costs_no_extra_draws():
 @pytest.mark.parametrize("scene", ["layers", "guitar"])
 def test_a_software_gl_draws_each_batch_in_flushed_chunks_with_the_same_pixels(scene, testdata,
                                                                                 monkeypatch):
-    """On a CPU rasteriser each batch goes out DRAW_CHUNK splats a draw with a glFlush after
-    each (so that llvmpipe rasterises one chunk while it bins the next); the order of the
-    splats is unchanged, so colour and depth are the same bit for bit. A GPU draws each
-    batch in one call and never flushes."""
+    """On a CPU rasteriser each batch goes out in draws of FIRST_CHUNK splats doubling up
+    to DRAW_CHUNK, with a glFlush after each (so that llvmpipe rasterises one chunk while
+    it bins the next); the order of the splats is unchanged, so colour and depth are the
+    same bit for bit. A GPU draws each batch in one call and never flushes."""
     item, cam = (layers(), layers_camera()) if scene == "layers" else guitar_with_axes(testdata)
     with OffscreenRenderer() as r:
         software = is_software(r.gl_info["GL_RENDERER"])
+        monkeypatch.setattr(composite, "FIRST_CHUNK", 10**9)
         monkeypatch.setattr(composite, "DRAW_CHUNK", 10**9)
         whole = r.render([item], cam, RenderOptions())
         before = dict(r.stats)
-        monkeypatch.setattr(composite, "DRAW_CHUNK", 97)
+        monkeypatch.setattr(composite, "FIRST_CHUNK", 97)
+        monkeypatch.setattr(composite, "DRAW_CHUNK", 4 * 97)
         chunked = r.render([item], cam, RenderOptions())
+        visible = len(r.last_order())
         batches = r.stats["splat_draws"] - before["splat_draws"]
         flushes = r.stats["draw_flushes"] - before["draw_flushes"]
     assert batches == before["splat_draws"] > 2
     if software:
         assert before["draw_flushes"] == batches  # one chunk a batch
-        assert flushes > 10 * batches
+        sizes = [count for _, count in composite.batches(visible, True)]
+        assert flushes == sum(ramped_chunks(n, 97, 4 * 97) for n in sizes) > 10 * batches
     else:
         assert flushes == before["draw_flushes"] == 0
     np.testing.assert_array_equal(chunked.rgba, whole.rgba)
     np.testing.assert_array_equal(chunked.depth, whole.depth)
+
+
+def ramped_chunks(count: int, first: int, most: int) -> int:
+    """Draws for a batch of count splats in chunks of first, 2 first, ... up to most."""
+    draws, step = 0, first
+    while count > 0:
+        count -= step
+        draws += 1
+        step = min(2 * step, most)
+    return draws
 
 
 def test_background_goes_behind_after_compositing(renderer):

@@ -52,6 +52,18 @@ def test_test64_each_sh_degree(renderer, test64, degree):
     assert_close(out, ref)
 
 
+def test_lower_degrees_read_from_a_degree_three_upload(test64):
+    """The rest buffer holds whole groups of four coefficients per splat, sized by what
+    was uploaded (15 here): lower degrees must step over the groups they don't read."""
+    with OffscreenRenderer() as r:
+        for degree in (3, 1, 2):
+            item = RenderItem(test64, world=world_for(test64), sh_degree=degree, key=("test64", 3))
+            cam = framing_camera(item, 128, 96)
+            out = r.render([item], cam, RenderOptions())
+            assert_close(out, reference.render([item], cam, RenderOptions()))
+        assert r.stats["sh_uploads"] == 1
+
+
 @pytest.mark.parametrize("options", [
     RenderOptions(),
     RenderOptions(antialiased=True),
@@ -173,7 +185,8 @@ def test_degree_zero_uploads_no_sh(test64):
         item = RenderItem(test64, sh_degree=0, key=("d0", 0))
         r.render([item], framing_camera(item, 16, 16))
         assert r.stats["sh_uploads"] == 0
-        assert r.stats["bytes_uploaded"] == 64 * (12 + 3) * 4
+        # one vec4 each: position + opacity, scale, quaternion, DC colour
+        assert r.stats["bytes_uploaded"] == 64 * 16 * 4
 
 
 def test_empty_scene_is_background(renderer):

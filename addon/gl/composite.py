@@ -2,11 +2,15 @@
 
 The splats are drawn front to back and blended "under" (dst += (1 - dst.a) * src, src
 premultiplied), so the target's alpha is the accumulated alpha 1 - T, as in the
-reference's loop. With options.early_termination the draw is cut into batches: after
-each batch a full-tile pass marks the pixels whose transmittance fell below 1e-4 in the
-depth buffer, and later batches' fragments there fail the (early) depth test before
-their shader runs. A pixel so stops at the end of the batch in which it saturated, not
-at the exact splat, which moves it by at most the 1e-4 of light left behind it.
+reference's loop. With options.early_termination the draw is cut into batches, and
+after each one the pixels whose transmittance fell below 1e-4 are found:
+- with compute shaders (GL 4.3), a saturation map (a pyramid of flags over 4-pixel and
+  larger cells) from which the vertex stage drops every later splat whose footprint lies
+  on saturated cells only;
+- on the GL 3.3 path, a full-tile pass marks those pixels in the depth buffer, and later
+  fragments there fail the (early) depth test before their shader runs.
+A pixel so stops at the end of the batch in which it saturated, not at the exact splat,
+which moves it by at most the 1e-4 of light left behind it.
 
 The Z pass is one more RGBA32F attachment blended the same way: its red channel sums
 T_i alpha_i z_i (green and blue are masked off). Divided by the accumulated alpha it is
@@ -20,13 +24,15 @@ import numpy as np
 from ..core.reference import DEPTH_FROM_ALPHA
 from . import shaders
 
-FIRST_BATCH = 1 / 16  # of the visible splats; each later batch doubles, the last takes the rest
-MAX_MARKS = 3  # marking passes, so batches - 1, at most (see batches)
+FIRST_BATCH = 1 / 16  # of the visible splats; each later batch doubles up to MAX_BATCH
+MAX_BATCH = 1 / 4
+MAX_BREAKS = 4  # batches - 1 at most: the last batch takes the rest (see batches)
 MIN_BATCH = 4096
 MARK_UNIT = 3  # texture unit of the saturation pass's colour input (records use 4..6)
 SAT_LEVELS = 12  # saturation-map levels at most: cells of 4 .. 8192 pixels
 B_SATURATION = 8  # storage binding of the saturation map
 DRAW_CHUNK = 16384  # splats per draw call where the compositor flushes (software GL)
+FIRST_CHUNK = 1024  # a batch's first draw there; each next one doubles up to DRAW_CHUNK
 
 
 def saturation_levels(w: int, h: int) -> list[tuple[int, int, int]]:
@@ -44,68 +50,69 @@ def saturation_levels(w: int, h: int) -> list[tuple[int, int, int]]:
 
 
 def batches(visible: int, early_termination: bool) -> list[tuple[int, int]]:
-    """(first, count) front-to-back batches. The first ones are small so that near
-    surfaces saturate their pixels before the splats behind them are drawn; there are few,
-    because every batch after the first costs a full-tile marking pass, a map build and a
-    wait for the GL (about 13 ms at 1080p on llvmpipe), and a late batch is a slab of the
-    depth order whose pixels, where they saturate, mostly do so within it, so its pass
-    culls little. On the final-frame bench 1/16, 1/8, 1/4 and the rest take 0.92x the wall
-    time (0.96x the CPU) of ten batches doubling from 1/64 to 1/8, A/B in both orders
-    (`python -m bench colour`, row "ten batches")."""
+    """(first, count) front-to-back batches: 1/16, 1/8, 1/4, 1/4 of the visible splats,
+    then the rest. The first ones are small so that near surfaces saturate their pixels
+    before the splats behind them are drawn; there are few, because every break between
+    batches waits for the GL to finish, then builds the saturation map (and on GL 3.3
+    draws a full-tile marking pass). On the final-frame bench (llvmpipe, 1080p, with the
+    map alone), this plan took 0.97x the time of 1/16, 1/8, 1/4 and the rest in two
+    A/Bs, and more breaks cost more than they saved (1/32, 1/32, 1/16, 1/8, 1/4 before
+    the rest: 1.06x; seven breaks: 1.11x); in one process, 6-8 frames each (2026-11-24)."""
     if not early_termination or visible <= MIN_BATCH:
         return [(0, visible)] if visible else []
     out, first = [], 0
     size = max(MIN_BATCH, int(visible * FIRST_BATCH))
+    cap = max(MIN_BATCH, int(visible * MAX_BATCH))
     while first < visible:
-        count = visible - first if len(out) == MAX_MARKS else min(size, visible - first)
+        count = visible - first if len(out) == MAX_BREAKS else min(size, visible - first)
         out.append((first, count))
         first += count
-        size *= 2
+        size = min(2 * size, cap)
     return out
 
 
 class Compositor:
     def __init__(self, ctx, records: str = "ssbo", flush=None):
-        """flush: a glFlush to call after every DRAW_CHUNK splats of a batch (software GL),
-        or None to draw each batch in one call. llvmpipe bins a draw's triangles on the GL
-        thread and its raster threads start on a scene only once it is flushed, so a batch
-        drawn whole leaves them idle while it is binned; in flushed chunks they rasterise
-        one while the next is binned. Final-frame bench colour frame at 1080p: 0.92x and
-        0.96x the wall time in two A/Bs of 10 frames each (0.96x and 0.99x the CPU), the
-        same pixels bit for bit."""
+        """flush: a glFlush to call between a batch's draws on a software GL (see _draw),
+        or None to draw each batch in one call."""
         self.ctx = ctx
         self.flush = flush
-        # the saturation map needs compute shaders and storage buffers (GL 4.3)
+        # the saturation map needs compute shaders and storage buffers (GL 4.3); without
+        # it, early termination marks the depth buffer instead
         self.sat_map = ctx.compute_shader(shaders.source("gl_saturation_map.comp", math=False)) \
             if records == "ssbo" else None
         defines = {"SL_SATURATION_MAP": SAT_LEVELS} if self.sat_map else {}
         self.draw = ctx.program(
             vertex_shader=shaders.source("gl_splat.vert", records=records, defines=defines),
             fragment_shader=shaders.source("gl_splat.frag", records=records))
-        self.mark = ctx.program(
+        self.mark = None if self.sat_map else ctx.program(
             vertex_shader=shaders.source("gl_fullscreen.vert", math=False, records=records),
             fragment_shader=shaders.source("gl_saturate.frag", math=False, records=records))
-        self.vaos = {p: ctx.vertex_array(p, []) for p in (self.draw, self.mark)}
+        self.vaos = {p: ctx.vertex_array(p, []) for p in (self.draw, self.mark) if p}
         self.targets: dict = {}
         self.splat_draws = 0  # batches of splats drawn in the last tile (stats and tests)
-        self.mark_passes = 0
+        self.breaks = 0  # early-termination passes between them (map or marks)
         self.flushes = 0
 
     def _targets(self, w: int, h: int) -> dict:
         if (w, h) not in self.targets:
-            colour = self.ctx.texture((w, h), 4, dtype="f4")
-            z = self.ctx.texture((w, h), 4, dtype="f4")
+            ctx = self.ctx
+            colour = ctx.texture((w, h), 4, dtype="f4")
+            z = ctx.texture((w, h), 4, dtype="f4")
             colour.filter = moderngl.NEAREST, moderngl.NEAREST
-            depth = self.ctx.depth_renderbuffer((w, h))
-            t = {"colour": colour, "z": z, "depth": depth,
-                 "plain": self.ctx.framebuffer([colour], depth),
-                 "with_z": self.ctx.framebuffer([colour, z], depth),
-                 "mark": self.ctx.framebuffer([], depth)}
+            t = {"colour": colour, "z": z}
             if self.sat_map is not None:
                 levels = saturation_levels(w, h)
                 t["levels"] = levels
-                t["flags"] = self.ctx.buffer(reserve=4 * (levels[-1][0] + levels[-1][1] * levels[-1][2]))
-            t["plain"].depth_mask = t["with_z"].depth_mask = False
+                t["flags"] = ctx.buffer(reserve=4 * (levels[-1][0] + levels[-1][1] * levels[-1][2]))
+                t["plain"] = ctx.framebuffer([colour])
+                t["with_z"] = ctx.framebuffer([colour, z])
+            else:
+                t["depth"] = depth = ctx.depth_renderbuffer((w, h))
+                t["plain"] = ctx.framebuffer([colour], depth)
+                t["with_z"] = ctx.framebuffer([colour, z], depth)
+                t["mark"] = ctx.framebuffer([], depth)
+                t["plain"].depth_mask = t["with_z"].depth_mask = False
             # the Z target uses red (T alpha z) and alpha (T alpha) only: masking green and
             # blue spares their blending: 0.84-0.95x the time of a Z frame on llvmpipe (three
             # A/Bs at 1080p), the same pixels and depths bit for bit
@@ -119,43 +126,63 @@ class Compositor:
         depth (inf below alpha 0.5, or everywhere without want_z), both top-down."""
         x0, y0, w, h = tile
         t = self._targets(w, h)
-        t["mark"].clear(depth=1.0)  # the splat framebuffers don't write depth, not even clears
+        if "mark" in t:
+            t["mark"].clear(depth=1.0)  # the splat framebuffers don't write depth, not even clears
         fbo = t["with_z"] if want_z else t["plain"]
         fbo.use()
         fbo.viewport = (0, 0, w, h)
         fbo.clear(0.0, 0.0, 0.0, 0.0)
-        self.splat_draws = self.mark_passes = self.flushes = 0
+        self.splat_draws = self.breaks = self.flushes = 0
         draw, ctx = self.draw, self.ctx
         draw["u_tile"].value = (float(x0), float(y0), float(w), float(h))
         draw["u_capped_extent"].value = bool(capped)
         if "u_visible" in draw:
             draw["u_visible"].value = visible
-        plan = batches(visible, early_termination)
         self._use_map(t, 0)
-        ctx.enable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        tests = moderngl.BLEND | (moderngl.DEPTH_TEST if "mark" in t else 0)
+        ctx.enable(tests)
         ctx.depth_func = "<"
         ctx.blend_func = moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE
-        for number, (first, count) in enumerate(plan):
+        for number, (first, count) in enumerate(batches(visible, early_termination)):
             if number:
-                self._mark(t, w, h)
-                self._build_map(t, w, h)
+                self._break(t, w, h)
                 fbo.use()
             self._draw(first, count)
-        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        ctx.disable(tests)
         return self._read(fbo, w, h, want_z)
 
+    def _break(self, t: dict, w: int, h: int):
+        """Between batches: find the pixels saturated so far for the next batches' culling."""
+        if self.sat_map is not None:
+            self._build_map(t, w, h)
+        else:
+            self._mark(t, w, h)
+        self.breaks += 1
+
     def _draw(self, first: int, count: int):
-        """Front-to-back ranks first .. first + count - 1 (in chunks where flushing)."""
+        """Front-to-back ranks first .. first + count - 1. Where flushing (software GL),
+        in draws of FIRST_CHUNK splats doubling up to DRAW_CHUNK, with a glFlush after
+        each: llvmpipe bins a draw's triangles on the GL thread, and its raster threads
+        start on them only once they are flushed, so a batch drawn whole leaves them idle
+        while it is binned; in chunks they rasterise one while the next is binned, and a
+        small first chunk sets them to work soon after each break, when they are idle.
+        Final-frame bench colour frame at 1080p: DRAW_CHUNK chunks took 0.92x and 0.96x
+        the wall time of whole batches in two A/Bs of 10 frames each (0.96x and 0.99x the
+        CPU); the same pixels bit for bit, as the order is unchanged."""
         draw = self.draw
-        step = DRAW_CHUNK if self.flush is not None and "u_first" in draw else count
-        for start in range(first, first + count, step):
+        flushing = self.flush is not None and "u_first" in draw
+        end, step = first + count, (min(FIRST_CHUNK, DRAW_CHUNK) if flushing else count)
+        start = first
+        while start < end:
+            n = min(step, end - start)
             if "u_first" in draw:
                 draw["u_first"].value = start
-            self.vaos[draw].render(moderngl.TRIANGLE_STRIP, vertices=4,
-                                   instances=min(step, first + count - start))
-            if self.flush is not None:
+            self.vaos[draw].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=n)
+            if flushing:
                 self.flush()
                 self.flushes += 1
+            start += n
+            step = min(2 * step, DRAW_CHUNK) if flushing else step
         self.splat_draws += 1
 
     @staticmethod
@@ -185,13 +212,10 @@ class Compositor:
         self.mark["u_colour"].value = MARK_UNIT
         self.vaos[self.mark].render(moderngl.TRIANGLES, vertices=3)
         ctx.enable(moderngl.BLEND)
-        self.mark_passes += 1
 
     def _build_map(self, t: dict, w: int, h: int):
         """The saturation map of the tile so far, for the draw stage's culling."""
         cs = self.sat_map
-        if cs is None:
-            return
         t["colour"].use(MARK_UNIT)
         t["flags"].bind_to_storage_buffer(B_SATURATION)
         cs["u_colour"].value = MARK_UNIT

@@ -67,8 +67,11 @@ class FrameState:
         self.capacity = cap
 
     # -- stages ------------------------------------------------------------------------
-    def _preprocess(self, items, objects, camera, options) -> int:
-        """Project every splat into the frame arrays; returns the visible count."""
+    def _preprocess(self, items, objects, camera, options, track_range: bool) -> int | None:
+        """Project every splat into the frame arrays. track_range: also gather the depth
+        range and visible count the GPU sort needs (atomics in every invocation: on
+        llvmpipe about a sixth of the stage, so not where the CPU sorts); returns the
+        visible count, or None without track_range."""
         self.range.write(np.array([0xFFFFFFFF, 0, 0], np.uint32).tobytes())
         a = self.arrays
         for binding, name in ((B_REC0, "rec0"), (B_REC1, "rec1"), (B_REC2, "rec2"), (B_DEPTH, "depth")):
@@ -79,6 +82,7 @@ class FrameState:
             set_uniform(cs, name, value)
         set_uniform(cs, "u_antialiased", bool(options.antialiased))
         set_uniform(cs, "u_capped_extent", bool(options.capped_extent))
+        set_uniform(cs, "u_track_range", bool(track_range))
         copies = slots_per_splat(camera) > 1
         set_uniform(cs, "u_copy_stride", sum(obj.count for obj in objects) if copies else 0)
         base = 0
@@ -89,43 +93,54 @@ class FrameState:
             set_uniform(cs, "u_rest_count", obj.rest_coeffs)
             for part in obj.parts:
                 part.geom.bind_to_storage_buffer(0)
-                part.dc.bind_to_storage_buffer(1)
                 (part.rest or self.dummy).bind_to_storage_buffer(2)
                 set_uniform(cs, "u_count", part.count)
                 set_uniform(cs, "u_base", base + part.start)
                 cs.run((part.count + 255) // 256)
             base += obj.count
         self.ctx.memory_barrier()
-        return int(np.frombuffer(self.range.read(), np.uint32)[2])
+        return int(np.frombuffer(self.range.read(), np.uint32)[2]) if track_range else None
 
-    def _sort(self, n: int, options: RenderOptions):
+    def _sort_gpu(self, n: int, options: RenderOptions):
         """Leaves the back-to-front order of the visible splats in a buffer; returns it."""
         a = self.arrays
-        if sorts_on_gpu(options.gpu_sort, self.gl_renderer):
-            self.sorter.make_keys(n, options.key_bits, a["depth"], self.range, a["keys"], a["vals"])
-            self.sorter.sort(n, options.key_bits, a["keys"], a["vals"], a["keys2"], a["vals2"])
-            self.stats["gpu_sorts"] += 1
-            return a["vals"]
+        self.sorter.make_keys(n, options.key_bits, a["depth"], self.range, a["keys"], a["vals"])
+        self.sorter.sort(n, options.key_bits, a["keys"], a["vals"], a["keys2"], a["vals2"])
+        self.stats["gpu_sorts"] += 1
+        return a["vals"]
+
+    def _sort_cpu(self, n: int, options: RenderOptions):
+        """The same order from the depths read back (numpy); returns (buffer, visible)."""
+        a = self.arrays
         depth = np.frombuffer(a["depth"].read(size=4 * n), np.float32)
         order = cpu_order(depth, options.key_bits)
-        a["order"].write(order.tobytes())
+        if len(order):
+            a["order"].write(order.tobytes())
         self.stats["cpu_sorts"] += 1
-        return a["order"]
+        return a["order"], len(order)
 
-    def _project(self, items, camera, options) -> tuple[int, int]:
-        """Upload (cached) and preprocess: returns (record slots, visible count)."""
+    def _project(self, items, camera, options, track_range: bool = False):
+        """Upload (cached) and preprocess: returns (record slots, visible count or None)."""
         self.cache.begin_frame()
         objects = [self.cache.get(item) for item in items]
         n = sum(obj.count for obj in objects) * slots_per_splat(camera)
         self._ensure(max(n, 1))
-        return n, (self._preprocess(items, objects, camera, options) if n else 0)
+        if not n:
+            return 0, 0
+        return n, self._preprocess(items, objects, camera, options, track_range)
 
     def _gpu_prepare(self, items, camera, options):
         """Upload, preprocess and sort with compute shaders; bind the frame's records."""
-        n, visible = self._project(items, camera, options)
+        gpu_sort = sorts_on_gpu(options.gpu_sort, self.gl_renderer)
+        n, visible = self._project(items, camera, options, track_range=gpu_sort)
         self.cache.retain({item.key for item in items if item.key is not None})
-        order = self._sort(n, options) if visible else self.arrays["order"]
         a = self.arrays
+        if not n:
+            order = a["order"]
+        elif gpu_sort:
+            order = self._sort_gpu(n, options) if visible else a["order"]
+        else:
+            order, visible = self._sort_cpu(n, options)
         for binding, buf in ((B_ORDER, order), (B_REC0, a["rec0"]), (B_REC1, a["rec1"]), (B_REC2, a["rec2"])):
             buf.bind_to_storage_buffer(binding)
         return order, visible, n
@@ -166,7 +181,7 @@ class FrameState:
         out = self.compositor.run(tile, visible, options.early_termination, self.want_depth,
                                   options.capped_extent)
         self.stats["splat_draws"] += self.compositor.splat_draws
-        self.stats["saturation_passes"] += self.compositor.mark_passes
+        self.stats["saturation_passes"] += self.compositor.breaks
         self.stats["draw_flushes"] += self.compositor.flushes
         return out
 

@@ -47,7 +47,8 @@ class OffscreenRenderer:
 
     stats counts work across frames: frames, geometry_uploads (objects whose splats
     were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts, splat_draws (batches of
-    splats drawn), saturation_passes (early-termination marks), draw_flushes (glFlush calls
+    splats drawn), saturation_passes (early-termination passes between them: saturation
+    map builds, or on GL 3.3 depth marks), draw_flushes (glFlush calls
     between a batch's chunks, software GL only); resident_objects is how many objects hold
     GPU buffers after the last frame.
     """

@@ -14,7 +14,8 @@ import numpy as np
 from ..core.scene import RenderItem
 from ..core.splats import sh_coeff_count
 
-GEOM_FLOATS = 12  # position + opacity, scale + pad, quaternion wxyz
+GEOM_FLOATS = 16  # position + opacity, scale + pad, quaternion wxyz, SH DC + pad
+REST_GROUP = 4  # SH coefficients per 3 vec4 of the rest buffer (gl_preprocess.comp)
 
 
 @dataclass
@@ -22,7 +23,6 @@ class Part:
     start: int
     count: int
     geom: object            # moderngl.Buffer
-    dc: object
     rest: object | None = None
 
 
@@ -36,7 +36,7 @@ class GpuObject:
 
     def release(self):
         for part in self.parts:
-            for buf in (part.geom, part.dc, part.rest):
+            for buf in (part.geom, part.rest):
                 if buf is not None:
                     buf.release()
         self.parts = []
@@ -49,7 +49,22 @@ def pack_geometry(item: RenderItem, start: int, stop: int) -> np.ndarray:
     g[:, 3] = sp.opacities[start:stop]
     g[:, 4:7] = sp.scales[start:stop]
     g[:, 8:12] = sp.rotations[start:stop]
+    g[:, 12:15] = sp.sh_dc[start:stop]
     return g
+
+
+def rest_groups(coeffs: int) -> int:
+    return -(-coeffs // REST_GROUP)
+
+
+def pack_rest(rest: np.ndarray, coeffs: int) -> np.ndarray:
+    """(n, coeffs, 3) SH coefficients as whole groups of four (rgb rgb rgb rgb = 3 vec4),
+    the last group zero-padded, so gl_preprocess.comp reads them in vec4 loads: on
+    llvmpipe each scalar load is its own per-lane gather, and at degree 2 the 24 of them
+    took a quarter of the preprocess."""
+    out = np.zeros((len(rest), rest_groups(coeffs) * REST_GROUP * 3), np.float32)
+    out[:, :coeffs * 3] = rest[:, :coeffs].reshape(len(rest), coeffs * 3)
+    return out
 
 
 class UploadCache:
@@ -60,11 +75,11 @@ class UploadCache:
         self.stats = stats
         self.objects: dict = {}
         self.transient: list = []  # key None: uploaded for one frame, freed at the next
-        # a block may not exceed this; 180 bytes/splat (degree-3 SH) sets the part size
+        # a block may not exceed this; 192 bytes/splat (degree-3 SH, padded) sets the part size
         self.max_block = int(ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE") or (1 << 27))
 
     def _part_size(self) -> int:
-        return max(1, self.max_block // (4 * 3 * 15))
+        return max(1, self.max_block // (4 * 3 * REST_GROUP * rest_groups(15)))
 
     def _buffer(self, array: np.ndarray):
         data = np.ascontiguousarray(array, np.float32)
@@ -78,8 +93,7 @@ class UploadCache:
         step = self._part_size()
         for start in range(0, sp.count, step):
             stop = min(start + step, sp.count)
-            obj.parts.append(Part(start, stop - start, self._buffer(pack_geometry(item, start, stop)),
-                                  self._buffer(sp.sh_dc[start:stop])))
+            obj.parts.append(Part(start, stop - start, self._buffer(pack_geometry(item, start, stop))))
         self.stats["geometry_uploads"] += 1
         return obj
 
@@ -88,8 +102,8 @@ class UploadCache:
         for part in obj.parts:
             if part.rest is not None:
                 part.rest.release()
-            rest = item.splats.sh_rest[part.start:part.start + part.count, :coeffs]
-            part.rest = self._buffer(rest)
+            rest = item.splats.sh_rest[part.start:part.start + part.count]
+            part.rest = self._buffer(pack_rest(rest, coeffs))
         obj.rest_coeffs = coeffs
         self.stats["sh_uploads"] += 1
 

@@ -64,6 +64,25 @@ def guitar_with_axes(testdata):
     return item, framing_camera(item, 320, 240, distance=1.1)
 
 
+def assert_early_termination_bound(stop, full, trimmed: bool):
+    """A pixel stopped early differs from the full composite by at most the 1e-4 of light
+    left behind it. Where the saturation map trims quads to their unsaturated cells
+    (trimmed), a trimmed quad's corners move, and with them the float32 rounding of the
+    offset interpolated across it: a fragment whose alpha lies within that rounding of the
+    1/255 cut may fall on the other side of it, moving its pixel by up to T/255 (a "cut
+    event": 1 pixel in these test frames, 4 of the bench frame's 2 million, where such a
+    splat's alpha was 0.003920 against the cut's 0.0039216). Those are allowed, no more
+    than 1 pixel in 1,000 and each within 1/255 past the bound; a real leak (a splat left
+    out over unsaturated pixels) moves pixels by its full alpha, and many of them."""
+    diff = np.abs(stop.rgba.astype(np.float64) - full.rgba).max(axis=-1)
+    bound = 1e-4 * max(1.0, float(full.rgba.max()))
+    events = diff > bound
+    if not trimmed:
+        assert not events.any()
+    assert events.mean() <= 1e-3
+    assert diff.max() <= bound + 1.0 / 255.0
+
+
 @pytest.fixture(scope="module")
 def fallback():
     r = OffscreenRenderer(compute=False)  # GL 3.3: no saturation map, the depth marks alone
@@ -84,9 +103,8 @@ def test_batched_early_termination_stays_within_its_bound(path, request):
     saturated = full.rgba[..., 3] > 1 - 1e-4
     assert 0.6 < saturated.mean() < 0.9 and not saturated[:, :12].any()
     assert stats["splat_draws"] > 2 and stats["saturation_passes"] == stats["splat_draws"] - 1
-    diff = np.abs(stop.rgba.astype(np.float64) - full.rgba)
-    assert diff.max() > 0
-    assert diff.max() < 1e-4 * max(1.0, float(full.rgba.max()))
+    assert np.abs(stop.rgba.astype(np.float64) - full.rgba).max() > 0
+    assert_early_termination_bound(stop, full, trimmed=path == "renderer")
 
 
 def test_early_termination_against_both_references(renderer):
@@ -271,8 +289,7 @@ def test_saturation_culling_keeps_tips_that_reach_unsaturated_pixels(renderer):
     without = renderer.render([walls], cam, RenderOptions(early_termination=False))
     band = (slice(None), slice(0, 18))  # columns 0-17 never saturate
     assert np.abs(full.rgba[band] - without.rgba[band]).max() > 1e-3  # tips: 10x the ET bound
-    diff = np.abs(out.rgba.astype(np.float64) - full.rgba)
-    assert diff.max() < 1e-4 * max(1.0, float(full.rgba.max()))
+    assert_early_termination_bound(out, full, trimmed=True)
 
 
 def test_glsl_early_termination_threshold_is_the_references():

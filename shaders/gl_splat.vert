@@ -18,18 +18,23 @@ uniform uint u_first;    // front-to-back rank of this batch's first splat
 layout(std430, binding = 8) readonly buffer Saturation { uint sat_flags[]; };
 uniform int u_sat_levels;  // 0: no map yet (first batch, or early termination off)
 const float SL_TRIM_AREA = 0.8;  // trim to the open cells below this share of the rectangle
-uniform uint u_sat_offset[SL_SATURATION_MAP];
-uniform uvec2 u_sat_size[SL_SATURATION_MAP];
+uniform uint u_sat_offset[SL_SATURATION_MAP];  // level k's first word
+uniform uvec2 u_sat_size[SL_SATURATION_MAP];   // its words per row, rows
 
-bool sat_cell(int level, uvec2 c)
+// bits of cells x0 .. x0 + n - 1 (n <= 32) of row y at level k, set where saturated
+uint sat_bits(int k, uint x0, uint n, uint y)
 {
-    return sat_flags[u_sat_offset[level] + c.y * u_sat_size[level].x + c.x] != 0u;
+    uint at = u_sat_offset[k] + y * u_sat_size[k].x + (x0 >> 5u), shift = x0 & 31u;
+    uint bits = sat_flags[at] >> shift;
+    if (shift + n > 32u) bits |= sat_flags[at + 1u] << (32u - shift);
+    return n == 32u ? bits : bits & ((1u << n) - 1u);
 }
 
 // The frame-pixel box [xy, zw] around the unsaturated pixels within `extent` (half-size
 // of the footprint's bounding box; one pixel of slack each side), in whole cells of the
-// finest level where that box spans <= 8x8 cells; empty (x > z) where all are saturated,
-// unbounded where no level is that coarse or there is no map yet.
+// finest level where that box spans at most 32 cells across and 8 down (a row is one or
+// two loads); empty (x > z) where all are saturated, unbounded where no level is that
+// coarse or there is no map yet.
 vec4 open_cells(vec2 centre, vec2 extent)
 {
     const vec4 unbounded = vec4(-1e30, -1e30, 1e30, 1e30);
@@ -40,19 +45,22 @@ vec4 open_cells(vec2 centre, vec2 extent)
     for (int k = 0; k < u_sat_levels; k++) {
         uint shift = uint(2 + k);
         uvec2 ca = a >> shift, cb = b >> shift;
-        if (cb.x - ca.x > 7u || cb.y - ca.y > 7u) continue;
-        uvec2 first = cb + 1u, last = ca;
+        if (cb.x - ca.x > 31u || cb.y - ca.y > 7u) continue;
+        uint n = cb.x - ca.x + 1u, first = 32u, last = 0u, top = cb.y + 1u, bottom = ca.y;
+        uint full = n == 32u ? 0xFFFFFFFFu : (1u << n) - 1u;
         for (uint y = ca.y; y <= cb.y; y++) {
-            for (uint x = ca.x; x <= cb.x; x++) {
-                if (!sat_cell(k, uvec2(x, y))) {
-                    first = min(first, uvec2(x, y));
-                    last = max(last, uvec2(x, y));
-                }
+            uint open = ~sat_bits(k, ca.x, n, y) & full;
+            if (open != 0u) {
+                first = min(first, uint(findLSB(open)));
+                last = max(last, uint(findMSB(open)));
+                top = min(top, y);
+                bottom = y;
             }
         }
-        if (first.x > cb.x) return vec4(1.0, 0.0, 0.0, 0.0);  // all saturated
+        if (top > cb.y) return vec4(1.0, 0.0, 0.0, 0.0);  // all saturated
         float cell = float(1u << shift);
-        return vec4(vec2(first) * cell, vec2(last + 1u) * cell) + u_tile.xyxy;
+        return vec4(float(ca.x + first) * cell, float(top) * cell,
+                    float(ca.x + last + 1u) * cell, float(bottom + 1u) * cell) + u_tile.xyxy;
     }
     return unbounded;
 }

@@ -36,14 +36,16 @@ FIRST_CHUNK = 1024  # a batch's first draw there; each next one doubles up to DR
 
 
 def saturation_levels(w: int, h: int) -> list[tuple[int, int, int]]:
-    """(offset, columns, rows) of each level of the tile's saturation map (level k:
-    cells of 4 << k pixels), down to the level where the tile is at most 2x2 cells."""
+    """(offset, words per row, rows) of each level of the tile's saturation map (level k:
+    cells of 4 << k pixels, one bit each, 32 to a uint), down to the level where the tile
+    is at most 2x2 cells."""
     out, offset = [], 0
     for k in range(SAT_LEVELS):
         cell = 4 << k
         cols, rows = -(-w // cell), -(-h // cell)
-        out.append((offset, cols, rows))
-        offset += cols * rows
+        words = -(-cols // 32)
+        out.append((offset, words, rows))
+        offset += words * rows
         if cols <= 2 and rows <= 2:
             break
     return out
@@ -221,16 +223,16 @@ class Compositor:
         cs["u_colour"].value = MARK_UNIT
         cs["u_tile_size"].value = (w, h)
         below = (0, 1, 1)
-        for k, (offset, cols, rows) in enumerate(t["levels"]):
+        for k, (offset, words, rows) in enumerate(t["levels"]):
             cs["u_level"].value = k
-            cs["u_size"].value = (cols, rows)
+            cs["u_size"].value = (words, rows)
             cs["u_offset"].value = offset
             if k:
                 cs["u_below"].value = below[0]
                 cs["u_below_size"].value = below[1:]
-            cs.run((cols + 7) // 8, (rows + 7) // 8)
+            cs.run((words + 7) // 8, (rows + 7) // 8)
             self.ctx.memory_barrier()
-            below = (offset, cols, rows)
+            below = (offset, words, rows)
         self._use_map(t, len(t["levels"]))
 
     def _use_map(self, t: dict, levels: int):

@@ -7,19 +7,19 @@ instrumented copies of the draw shaders, each knocking out one part of the work.
 Rows (median CPU of all threads and wall over the runs, frames interleaved, each run
 starting at the next row):
 - full: the renderer as it is.
-- no raster: the vertex stage runs (records, rectangle, saturation test) but puts every
-  quad outside the clip volume; what is left is upload, preprocess, sort, the marking
-  and saturation-map passes and the readback.
+- no raster: the vertex stage runs (records, rectangle, saturation map) but puts every
+  quad outside the clip volume; what is left is upload, preprocess, sort, the
+  saturation-map builds and the readback (the map stays empty: nothing is drawn).
 - no vertex work: as above, but the vertex stage returns before reading anything.
-- no ET passes: "no vertex work" without early termination (no mark or map passes).
+- no ET passes: "no vertex work" without early termination (no map builds).
 - 1 px quads: every drawn quad shrunk to about one pixel: the per-primitive cost.
-- all rejected: after the first batch the mark pass marks every pixel, so all later
-  fragments fail the early depth test: the cost of a depth-rejected fragment.
+- no trimming: the map culls splats whose footprint is saturated but no longer trims the
+  others to their unsaturated cells.
 - ET off: the full composite.
 - ten batches: the batch schedule before commit 4d5c3c9, doubling from 1/64 of the splats
-  to 1/8 (ten marking passes where the renderer's now makes three).
-Then the share of the frame's 4x4-pixel cells saturated at each marking pass, with the
-renderer's batches and with ten. Where the fragments go: bench/fragment_census.py.
+  to 1/8 (nine breaks where the renderer's now makes four).
+Then the share of the frame's 4x4-pixel cells saturated at each break (map build), with
+the renderer's batches and with ten. Where the fragments go: bench/fragment_census.py.
 The instrumented copies (bench/shader_patch.py) are the benches' only: they patch the
 shader text they load.
 """
@@ -35,7 +35,7 @@ from addon.core.scene import RenderOptions
 from addon.gl import composite
 from bench.final_frame_bench import COUNT, SIZE
 from bench.playbot_scene import scene
-from bench.shader_patch import CORNERS, FIRST, MARK, OUTSIDE, POSITION, SATURATED, V, renderer_for
+from bench.shader_patch import CORNERS, FIRST, OUTSIDE, POSITION, TRIM, V, renderer_for
 
 
 def ten_batches(visible: int, early_termination: bool):
@@ -55,7 +55,7 @@ ROWS = {
     "no vertex work": (((V, FIRST, f"    if (u_tile.x > -1e30) {{ {OUTSIDE}; return; }}\n{FIRST}"),), True),
     "no ET passes": (((V, FIRST, f"    if (u_tile.x > -1e30) {{ {OUTSIDE}; return; }}\n{FIRST}"),), False),
     "1 px quads": (((V, CORNERS, f"    axes = mat2(0.5);\n{CORNERS}"),), True),
-    "all rejected": (((MARK, SATURATED, SATURATED.replace("<= 1.0 - SL_T_STOP", "< -1.0")),), True),
+    "no trimming": (((V, TRIM, TRIM.replace("0.8", "0.0")),), True),
     "ET off": ((), False),
     "ten batches": ((), True, ten_batches),
 }
@@ -83,17 +83,18 @@ def timings(items, cam, runs: int) -> dict:
 
 
 def saturation_timeline(items, cam, plan=None) -> list[float]:
-    """Share of the frame's 4x4-pixel cells saturated (the map's level 0) when each
-    marking pass runs, under the renderer's batch schedule or `plan`."""
+    """Share of the frame's 4x4-pixel cells saturated (the map's level 0) at each break,
+    under the renderer's batch schedule or `plan`."""
     r = renderer_for((), items, cam)
     shares = []
     build = composite.Compositor._build_map
 
     def recording(self, t, w, h):
         build(self, t, w, h)
-        offset, cols, rows = t["levels"][0]
-        flags = np.frombuffer(t["flags"].read(size=4 * cols * rows, offset=4 * offset), np.uint32)
-        shares.append(float((flags != 0).mean()))
+        offset, words, rows = t["levels"][0]
+        raw = t["flags"].read(size=4 * words * rows, offset=4 * offset)
+        bits = np.unpackbits(np.frombuffer(raw, np.uint8), bitorder="little")  # little-endian words
+        shares.append(float(bits.reshape(rows, 32 * words)[:, :-(-w // 4)].mean()))
     composite.Compositor._build_map, plain = recording, composite.batches
     composite.batches = plan or plain
     try:
@@ -114,7 +115,7 @@ def main(runs: int = 3):
         print(f"  {name:15s} {1000 * cpu:7.0f} ms CPU ({cpu / full:4.2f} of full) {1000 * wall:7.0f} ms wall")
     for label, plan in (("", None), (" (ten batches)", ten_batches)):
         shares = saturation_timeline(items, cam, plan)
-        print(f"4x4 cells saturated at each marking pass{label}: " + ", ".join(f"{x:.0%}" for x in shares))
+        print(f"4x4 cells saturated at each break{label}: " + ", ".join(f"{x:.0%}" for x in shares))
 
 
 if __name__ == "__main__":

@@ -4,17 +4,16 @@ playbot frame of final_frame_bench (500k splats, SH 2, 1920x1080), counted splat
     python -m bench.fragment_census
 
 Per early-termination batch: the splats with fragments (the others were culled by the
-saturation map, or cover no pixel centre), the fragments rasterised, those past the depth
-marks, those at alpha >= 1/255 and, of those, the useful ones: landing on a pixel still at
-T >= 1e-4 when they arrive, the only ones the reference's exact early termination keeps
-(read with GL_EXT_shader_framebuffer_fetch; without it that column is left out). Then the
-drawn splats that add nothing under exact early termination, with their fragments: what
-a per-pixel stop could skip that the batch's marks and map cannot.
+saturation map, or cover no pixel centre), the fragments rasterised, those at alpha >=
+1/255 and, of those, the useful ones: landing on a pixel still at T >= 1e-4 when they
+arrive, the only ones the reference's exact early termination keeps (read with
+GL_EXT_shader_framebuffer_fetch; without it that column is left out). Then the drawn
+splats that add nothing under exact early termination, with their fragments: what a
+per-pixel stop could skip that the batch's map cannot.
 
-Two counting frames, from copies of the draw shaders with atomic counters patched in (bench/shader_patch.py): one as rendered, one with the marking pass marking
-nothing, where every rasterised fragment passes the depth test. The saturation map culls the
-same splats in both (it reads only pixels at T < 1e-4, and a fragment landing on one leaves
-it below that).
+One counting frame, from copies of the draw shaders with atomic counters patched in
+(bench/shader_patch.py), on the compute path (no depth marks: every rasterised fragment
+is shaded).
 """
 from __future__ import annotations
 
@@ -24,15 +23,15 @@ from addon.core.scene import RenderOptions
 from addon.gl import composite
 from bench.final_frame_bench import COUNT, SIZE
 from bench.playbot_scene import scene
-from bench.shader_patch import FETCH, KEEP, MARK, SATURATED, F, V, has_fetch, renderer_for
+from bench.shader_patch import FETCH, KEEP, F, V, has_fetch, renderer_for
 
 B_COUNTERS = 9  # storage binding of the counters (the sort's bindings are rebound per draw)
-FIELDS = ("past", "kept", "useful")  # counters per splat, in front-to-back rank order
+FIELDS = ("rasterised", "kept", "useful")  # counters per splat, in front-to-back rank order
 
 
-def counting_edits(fetch: bool, mark_nothing: bool) -> list:
-    """Shader edits counting, per front-to-back rank, fragments past the depth test, at
-    alpha >= 1/255, and (with fetch) those at alpha >= 1/255 on a pixel not yet saturated."""
+def counting_edits(fetch: bool) -> list:
+    """Shader edits counting, per front-to-back rank, fragments rasterised, at alpha >=
+    1/255, and (with fetch) those at alpha >= 1/255 on a pixel not yet saturated."""
     block = f"layout(std430, binding = {B_COUNTERS}) buffer Counters {{ uint counters[]; }};\n"
     useful = ("    if (alpha >= SL_ALPHA_MIN && frag.a <= 1.0 - 1.0e-4) atomicAdd(counters[3u * v_rank + 2u], 1u);\n"
               if fetch else "")
@@ -46,17 +45,14 @@ def counting_edits(fetch: bool, mark_nothing: bool) -> list:
              (F, KEEP, count + KEEP)]
     if fetch:
         edits.append((F, "#version 430\n", "#version 430\n" + FETCH))
-    if mark_nothing:
-        edits.append((MARK, SATURATED,
-                      SATURATED.replace("<= 1.0 - SL_T_STOP", "< 2.0 + 0.0 * SL_T_STOP")))
     return edits
 
 
-def counting_frame(items, cam, fetch: bool, mark_nothing: bool) -> np.ndarray:
+def counting_frame(items, cam, fetch: bool) -> np.ndarray:
     """(visible, 3) int64 counters per front-to-back rank from one counting frame."""
     import moderngl
 
-    r = renderer_for(counting_edits(fetch, mark_nothing), items, cam)
+    r = renderer_for(counting_edits(fetch), items, cam)
     size = 4 * len(FIELDS) * sum(item.splats.count for item in items)
     buf = r._worker.call(lambda: r._worker.ctx.buffer(np.zeros(size, np.uint32).tobytes()))
     plain = moderngl.VertexArray.render
@@ -79,25 +75,24 @@ def counting_frame(items, cam, fetch: bool, mark_nothing: bool) -> np.ndarray:
 
 
 def census(items, cam) -> dict:
-    """Per-rank counts of the two frames: rasterised, past, kept, useful (-1: no fetch)."""
+    """Per-rank counts: rasterised, kept, useful (-1: no fetch)."""
     fetch = has_fetch(items, cam)
-    shown = counting_frame(items, cam, fetch, mark_nothing=False)
-    unmarked = counting_frame(items, cam, fetch, mark_nothing=True)
-    return {"rasterised": unmarked[:, 0], "past": shown[:, 0], "kept": shown[:, 1],
-            "useful": shown[:, 2] if fetch else np.full(len(shown), -1)}
+    counts = counting_frame(items, cam, fetch)
+    return {"rasterised": counts[:, 0], "kept": counts[:, 1],
+            "useful": counts[:, 2] if fetch else np.full(len(counts), -1)}
 
 
 def print_census(counts: dict):
     m = lambda x: f"{x / 1e6:6.1f} M"  # noqa: E731
-    ras, past, kept, useful = (counts[k] for k in ("rasterised", "past", "kept", "useful"))
+    ras, kept, useful = (counts[k] for k in ("rasterised", "kept", "useful"))
     fetch = useful.min(initial=0) >= 0
-    print("batch: splats (with fragments) | fragments rasterised, past the marks, alpha >= 1/255"
+    print("batch: splats (with fragments) | fragments rasterised, alpha >= 1/255"
           + (", useful (exact ET)" if fetch else ""))
     for first, count in composite.batches(len(ras), True):
         part = slice(first, first + count)
-        print(f"  {count:7d} ({int((ras[part] > 0).sum()):7d}) | {m(ras[part].sum())} {m(past[part].sum())} "
+        print(f"  {count:7d} ({int((ras[part] > 0).sum()):7d}) | {m(ras[part].sum())} "
               f"{m(kept[part].sum())}" + (f" {m(useful[part].sum())}" if fetch else ""))
-    print(f"  all {len(ras):7d} ({int((ras > 0).sum()):7d}) | {m(ras.sum())} {m(past.sum())} {m(kept.sum())}"
+    print(f"  all {len(ras):7d} ({int((ras > 0).sum()):7d}) | {m(ras.sum())} {m(kept.sum())}"
           + (f" {m(useful.sum())}" if fetch else ""))
     if fetch:
         drawn = ras > 0

@@ -8,12 +8,12 @@ from addon.core.scene import RenderOptions
 from addon.gl import shaders
 from bench.final_frame_rows import small as small_camera
 
-V, F, MARK = "gl_splat.vert", "gl_splat.frag", "gl_saturate.frag"
+V, F = "gl_splat.vert", "gl_splat.frag"
 OUTSIDE = "gl_Position = vec4(2.0, 2.0, 2.0, 1.0)"
 POSITION = "gl_Position = vec4(ndc.x, ndc.y, 0.5, 1.0);"
 FIRST = "    uint k = u_visible - 1u - (u_first + uint(gl_InstanceID));"
 CORNERS = "    vec2 pix = r0.xy + axes * corner;"
-SATURATED = "if (texelFetch(u_colour, ivec2(gl_FragCoord.xy), 0).a <= 1.0 - SL_T_STOP) discard;"
+TRIM = "const float SL_TRIM_AREA = 0.8;"
 KEEP = "    alpha = alpha < SL_ALPHA_MIN ? 0.0 : alpha;"
 FETCH = "#extension GL_EXT_shader_framebuffer_fetch : require\n"
 

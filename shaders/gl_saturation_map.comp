@@ -3,14 +3,20 @@
 // has transmittance below SL_T_STOP (pixels outside the tile count as saturated, since
 // nothing is drawn there). A row of cells is packed 32 to a uint, lowest bit first, so the
 // draw stage reads a row of a splat's footprint in one or two loads.
-// One invocation per uint: level 0 reads the colour target's alpha (1 - T); level k > 0
-// ANDs each 2x2 block of level k - 1's cells.
+// Three passes, each its own program (SL_PASS, from composite.py): llvmpipe runs every
+// branch of a shader under a lane mask, so one program switching on a uniform paid for
+// all three in each:
+// - cells (0): one invocation per level-0 cell, reading the colour target's alpha (1 - T)
+//   into a uint per cell (a word a lane, looping over its 32 cells, took 2.5x as long);
+// - pack (1): one invocation per level-0 word, from those uints;
+// - reduce (2): one invocation per word of level k > 0, ANDing 2x2 blocks of level k - 1.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 8) buffer Saturation { uint flags[]; };
+layout(std430, binding = 9) buffer Cells { uint cells[]; };
 
 uniform sampler2D u_colour;  // the tile's colour target (rows top-down, as the map's)
-uniform int u_level;
-uniform uvec2 u_size;        // this level's words per row, rows
+uniform uvec2 u_size;        // this level's words (cells pass: cells) per row, rows
+uniform uint u_cells;        // level 0's cells per row
 uniform uvec2 u_below_size;  // level k - 1's words per row, rows (k > 0)
 uniform uint u_offset;       // this level's first word
 uniform uint u_below;        // level k - 1's first word
@@ -18,16 +24,18 @@ uniform ivec2 u_tile_size;
 
 const float SL_T_STOP = 1.0e-4;  // twin of core/reference.py T_STOP
 
+// all 16 pixels read, no early exit: on llvmpipe the divergent exit cost 3x the reads
 bool cell_saturated(ivec2 cell)
 {
+    bool all_done = true;
     for (int j = 0; j < 4; j++) {
         for (int i = 0; i < 4; i++) {
             ivec2 p = cell * 4 + ivec2(i, j);
             if (p.x < u_tile_size.x && p.y < u_tile_size.y
-                    && texelFetch(u_colour, p, 0).a <= 1.0 - SL_T_STOP) return false;
+                    && texelFetch(u_colour, p, 0).a <= 1.0 - SL_T_STOP) all_done = false;
         }
     }
-    return true;
+    return all_done;
 }
 
 // word (x, y) of level k - 1; all ones (saturated) past its edges
@@ -51,17 +59,21 @@ void main()
 {
     uvec2 w = gl_GlobalInvocationID.xy;
     if (w.x >= u_size.x || w.y >= u_size.y) return;
+#if SL_PASS == 0
+    cells[w.y * u_size.x + w.x] = cell_saturated(ivec2(w)) ? 1u : 0u;
+#elif SL_PASS == 1
     uint word = 0u;
-    if (u_level == 0) {
-        for (uint b = 0u; b < 32u; b++) {
-            if (cell_saturated(ivec2(w.x * 32u + b, w.y))) word |= 1u << b;
-        }
-    } else {
-        // the 64 cells below these 32: two words of each of two rows; a cell is saturated
-        // where both rows' bits are, for both cells of its pair
-        uint lo = below(2u * w.x, 2u * w.y) & below(2u * w.x, 2u * w.y + 1u);
-        uint hi = below(2u * w.x + 1u, 2u * w.y) & below(2u * w.x + 1u, 2u * w.y + 1u);
-        word = even_bits(lo & (lo >> 1)) | (even_bits(hi & (hi >> 1)) << 16);
+    for (uint b = 0u; b < 32u; b++) {
+        uint x = w.x * 32u + b;
+        // cells past the tile's right edge count as saturated
+        if (x >= u_cells || cells[w.y * u_cells + x] != 0u) word |= 1u << b;
     }
-    flags[u_offset + w.y * u_size.x + w.x] = word;
+    flags[w.y * u_size.x + w.x] = word;
+#else
+    // the 64 cells below these 32: two words of each of two rows; a cell is saturated
+    // where both rows' bits are, for both cells of its pair
+    uint lo = below(2u * w.x, 2u * w.y) & below(2u * w.x, 2u * w.y + 1u);
+    uint hi = below(2u * w.x + 1u, 2u * w.y) & below(2u * w.x + 1u, 2u * w.y + 1u);
+    flags[u_offset + w.y * u_size.x + w.x] = even_bits(lo & (lo >> 1)) | (even_bits(hi & (hi >> 1)) << 16);
+#endif
 }

@@ -31,6 +31,8 @@ MIN_BATCH = 4096
 MARK_UNIT = 3  # texture unit of the saturation pass's colour input (records use 4..6)
 SAT_LEVELS = 12  # saturation-map levels at most: cells of 4 .. 8192 pixels
 B_SATURATION = 8  # storage binding of the saturation map
+B_CELLS = 9  # and of its level 0 as one uint a cell, before packing
+CELLS, PACK, REDUCE = 0, 1, 2  # gl_saturation_map.comp's passes
 DRAW_CHUNK = 16384  # splats per draw call where the compositor flushes (software GL)
 FIRST_CHUNK = 1024  # a batch's first draw there; each next one doubles up to DRAW_CHUNK
 
@@ -81,8 +83,9 @@ class Compositor:
         self.flush = flush
         # the saturation map needs compute shaders and storage buffers (GL 4.3); without
         # it, early termination marks the depth buffer instead
-        self.sat_map = ctx.compute_shader(shaders.source("gl_saturation_map.comp", math=False)) \
-            if records == "ssbo" else None
+        self.sat_map = [ctx.compute_shader(shaders.source("gl_saturation_map.comp", math=False,
+                                                          defines={"SL_PASS": kind}))
+                        for kind in (CELLS, PACK, REDUCE)] if records == "ssbo" else None
         defines = {"SL_SATURATION_MAP": SAT_LEVELS} if self.sat_map else {}
         self.draw = ctx.program(
             vertex_shader=shaders.source("gl_splat.vert", records=records, defines=defines),
@@ -107,6 +110,7 @@ class Compositor:
                 levels = saturation_levels(w, h)
                 t["levels"] = levels
                 t["flags"] = ctx.buffer(reserve=4 * (levels[-1][0] + levels[-1][1] * levels[-1][2]))
+                t["cells"] = ctx.buffer(reserve=4 * -(-w // 4) * levels[0][2])
                 t["plain"] = ctx.framebuffer([colour])
                 t["with_z"] = ctx.framebuffer([colour, z])
             else:
@@ -217,23 +221,26 @@ class Compositor:
 
     def _build_map(self, t: dict, w: int, h: int):
         """The saturation map of the tile so far, for the draw stage's culling."""
-        cs = self.sat_map
         t["colour"].use(MARK_UNIT)
         t["flags"].bind_to_storage_buffer(B_SATURATION)
-        cs["u_colour"].value = MARK_UNIT
-        cs["u_tile_size"].value = (w, h)
+        t["cells"].bind_to_storage_buffer(B_CELLS)
+        cols, rows = -(-w // 4), t["levels"][0][2]
+        self._map_pass(CELLS, (cols, rows), u_colour=MARK_UNIT, u_tile_size=(w, h))
         below = (0, 1, 1)
         for k, (offset, words, rows) in enumerate(t["levels"]):
-            cs["u_level"].value = k
-            cs["u_size"].value = (words, rows)
-            cs["u_offset"].value = offset
-            if k:
-                cs["u_below"].value = below[0]
-                cs["u_below_size"].value = below[1:]
-            cs.run((words + 7) // 8, (rows + 7) // 8)
-            self.ctx.memory_barrier()
+            self._map_pass(REDUCE if k else PACK, (words, rows), u_offset=offset, u_cells=cols,
+                           u_below=below[0], u_below_size=below[1:])
             below = (offset, words, rows)
         self._use_map(t, len(t["levels"]))
+
+    def _map_pass(self, kind: int, size: tuple[int, int], **uniforms):
+        cs = self.sat_map[kind]
+        cs["u_size"].value = size
+        for name, value in uniforms.items():
+            if name in cs:
+                cs[name].value = value
+        cs.run((size[0] + 7) // 8, (size[1] + 7) // 8)
+        self.ctx.memory_barrier()
 
     def _use_map(self, t: dict, levels: int):
         """Let the draw stage read the map's first `levels` levels (0: cull nothing)."""
@@ -252,6 +259,6 @@ class Compositor:
             for name, obj in t.items():
                 if name != "levels":
                     obj.release()
-        for obj in list(self.vaos.values()) + [self.draw, self.mark, self.sat_map]:
+        for obj in list(self.vaos.values()) + [self.draw, self.mark] + (self.sat_map or []):
             if obj is not None:
                 obj.release()

@@ -87,5 +87,9 @@ def sorts_on_gpu(choice: bool | None, gl_renderer: str) -> bool:
 
 
 def cpu_order(depth: np.ndarray, bits: int) -> np.ndarray:
-    """Back-to-front global indices of the visible splats (depth is +inf where culled)."""
-    return back_to_front(depth, bits, np.isfinite(depth))
+    """Back-to-front global indices of the visible splats (depth is +inf where culled).
+    The culled slots are dropped before the sort rather than after (a third of the bench
+    frame's): the same keys (their range is the visible depths') and the same order, as
+    equal keys still put the lower index in front."""
+    visible = np.flatnonzero(np.isfinite(depth)).astype(np.uint32)
+    return visible[back_to_front(depth[visible], bits)]

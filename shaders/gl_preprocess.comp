@@ -26,7 +26,6 @@ uniform vec4 u_focal_centre;     // fx, fy, cx, cy
 uniform vec4 u_jac_bounds;
 uniform vec2 u_frame;            // width, height
 uniform vec2 u_near_far;
-uniform bool u_ortho;
 uniform vec3 u_ortho_dir;        // ortho: the camera's forward axis in the object's frame
 uniform vec3 u_depth_axis;       // depth = dot(u_depth_axis, p) + u_sort_offset - frame anchor
 uniform float u_sort_offset;
@@ -38,12 +37,19 @@ uniform mat3 u_color_linear;
 uniform vec3 u_color_offset;
 uniform bool u_antialiased;
 uniform bool u_capped_extent;   // quads cut at 3 sigma (speed), else the 1/255 contour
-uniform bool u_equirect;
 uniform float u_lat_limit;       // equirect: latitude clamp of J (radians)
 uniform float u_period;          // equirect: pixels per full turn of longitude
 uniform uint u_copy_stride;      // equirect: splats in the frame (slot stride of the copies); else 0
 uniform bool u_track_range;      // gather range_bits (the GPU sort's keys need them)
 uniform vec2 u_lens;             // depth of field: aperture radius, 1 / focus distance; (0, 0) = off
+
+// The camera's projection (SL_CAMERA: 0 perspective, 1 orthographic, 2 equirect) and
+// whether it has depth of field (SL_DOF) are constants, one program per combination a
+// scene uses (frame.py): llvmpipe runs both sides of a branch under a lane mask, so as
+// uniforms they cost every splat the equirect and DOF paths too (about 5 of 35 ms on the
+// final-frame bench).
+const bool sl_ortho = SL_CAMERA == 1;
+const bool sl_equirect = SL_CAMERA == 2;
 
 // float bits -> uint with the same order (negative floats too), for atomicMin/Max
 uint ordered_bits(float f)
@@ -99,7 +105,7 @@ void cull_slot(uint g)
 void cull(uint g)
 {
     cull_slot(g);
-    if (u_copy_stride != 0u) {
+    if (sl_equirect) {
         cull_slot(g + u_copy_stride);
         cull_slot(g + 2u * u_copy_stride);
     }
@@ -140,14 +146,16 @@ void main()
     // camera-relative: p - eye exactly in float32 for nearby points (eye split hi + lo)
     vec3 rel = (p.xyz - u_eye_hi) - u_eye_lo;
     vec3 t = u_cam_from_local * rel;
-    float depth = u_equirect ? length(t) : -t.z;
+    float depth = sl_equirect ? length(t) : -t.z;
     if (!(depth > u_near_far.x) || depth > u_near_far.y) { cull(g); return; }
 
     mat3 axes = sl_axes_camera(u_cam_from_local, q, s.xyz * u_splat_scale);
-    mat3x2 jac = u_equirect ? sl_equirect_jacobian(t, u_focal_centre.xy, u_lat_limit)
-                            : sl_jacobian(t, u_focal_centre.xy, u_jac_bounds, u_ortho);
+    mat3x2 jac = sl_equirect ? sl_equirect_jacobian(t, u_focal_centre.xy, u_lat_limit)
+                            : sl_jacobian(t, u_focal_centre.xy, u_jac_bounds, sl_ortho);
     vec4 cov = sl_cov2d(axes, jac);
+#if SL_DOF
     if (u_lens.x > 0.0) sl_defocus(cov, depth, u_focal_centre.xy, u_lens, u_antialiased, opacity);
+#endif
     vec3 conic;
     float lambda_max;
     if (!sl_conic(cov, u_antialiased, opacity, conic, lambda_max) || !(opacity >= SL_ALPHA_MIN)) {
@@ -155,25 +163,25 @@ void main()
         return;
     }
     float radius = sl_quad_radius(lambda_max, opacity, u_capped_extent);
-    vec2 centre = u_equirect ? sl_equirect_point(t, u_focal_centre)
-                             : sl_project_point(t, u_focal_centre, u_ortho);
+    vec2 centre = sl_equirect ? sl_equirect_point(t, u_focal_centre)
+                             : sl_project_point(t, u_focal_centre, sl_ortho);
     vec2 turn = vec2(u_period, 0.0);
     // off-frame quads are culled here so they do not widen the depth-key range
-    bool on = on_frame(centre, radius) || (u_copy_stride != 0u
+    bool on = on_frame(centre, radius) || (sl_equirect
         && (on_frame(centre + turn, radius) || on_frame(centre - turn, radius)));
     if (!on || !sl_is_finite(radius) || !sl_is_finite(centre.x) || !sl_is_finite(centre.y)) {
         cull(g);
         return;
     }
-    vec3 dir = u_ortho ? u_ortho_dir : rel / length(rel);
+    vec3 dir = sl_ortho ? u_ortho_dir : rel / length(rel);
     vec3 rgb = sl_grade_color(sh_colour(i, geom[4u * i + 3u], dir), u_color_linear, u_color_offset);
     if (!sl_is_finite3(rgb)) { cull(g); return; }
     // Sort on depth minus a per-frame anchor (offset summed in float64 on the CPU): a small
     // object far from the camera keeps its depth differences, which depth itself rounds away.
     // Equirect: the distance itself (no view axis to take a linear depth along).
-    float sort_depth = u_equirect ? depth : dot(u_depth_axis, p.xyz) + u_sort_offset;
+    float sort_depth = sl_equirect ? depth : dot(u_depth_axis, p.xyz) + u_sort_offset;
     emit(g, centre, conic, radius, depth, opacity, rgb, sort_depth);
-    if (u_copy_stride != 0u) {
+    if (sl_equirect) {
         emit(g + u_copy_stride, centre + turn, conic, radius, depth, opacity, rgb, sort_depth);
         emit(g + 2u * u_copy_stride, centre - turn, conic, radius, depth, opacity, rgb, sort_depth);
     }

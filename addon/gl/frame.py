@@ -37,7 +37,7 @@ class FrameState:
         self.gl_renderer = ctx.info.get("GL_RENDERER", "")
         self.record_textures = None if self.compute else RecordTextures(ctx)
         self.compositor = Compositor(ctx, records, gl_flush(ctx) if is_software(self.gl_renderer) else None)
-        self.preprocess = ctx.compute_shader(shaders.source("gl_preprocess.comp")) if self.compute else None
+        self.preprocess = {}  # compute programs by preprocess_defines
         self.range = ctx.buffer(reserve=12) if self.compute else None
         self.dummy = ctx.buffer(reserve=16) if self.compute else None
         self.capacity = 0
@@ -77,7 +77,7 @@ class FrameState:
         for binding, name in ((B_REC0, "rec0"), (B_REC1, "rec1"), (B_REC2, "rec2"), (B_DEPTH, "depth")):
             a[name].bind_to_storage_buffer(binding)
         self.range.bind_to_storage_buffer(B_RANGE)
-        cs = self.preprocess
+        cs = self._preprocess_program(camera)
         for name, value in camera_uniforms(camera).items():
             set_uniform(cs, name, value)
         set_uniform(cs, "u_antialiased", bool(options.antialiased))
@@ -100,6 +100,13 @@ class FrameState:
             base += obj.count
         self.ctx.memory_barrier()
         return int(np.frombuffer(self.range.read(), np.uint32)[2]) if track_range else None
+
+    def _preprocess_program(self, camera: Camera):
+        key = preprocess_defines(camera)
+        if key not in self.preprocess:
+            self.preprocess[key] = self.ctx.compute_shader(
+                shaders.source("gl_preprocess.comp", defines=dict(key)))
+        return self.preprocess[key]
 
     def _sort_gpu(self, n: int, options: RenderOptions):
         """Leaves the back-to-front order of the visible splats in a buffer; returns it."""
@@ -210,8 +217,8 @@ class FrameState:
         for buf in list(self.arrays.values()) + [self.range, self.dummy]:
             if buf is not None:
                 buf.release()
-        if self.preprocess is not None:
-            self.preprocess.release()
+        for program in self.preprocess.values():
+            program.release()
 
     def preprocess_records(self, items, camera, options) -> dict:
         """Run only the upload and preprocess stages and read their output back, for tests
@@ -224,6 +231,13 @@ class FrameState:
                for k in ("rec0", "rec1", "rec2")}
         out["depth"] = np.frombuffer(self.arrays["depth"].read(size=4 * n), np.float32).copy()
         return out
+
+
+def preprocess_defines(camera: Camera) -> tuple:
+    """The preprocess program's constants for this camera: its projection (SL_CAMERA: 0
+    perspective, 1 orthographic, 2 equirect) and depth of field (SL_DOF)."""
+    kind = 2 if camera.equirect else 1 if camera.ortho else 0
+    return (("SL_CAMERA", kind), ("SL_DOF", int(camera.defocus is not None)))
 
 
 def tiles(width: int, height: int):

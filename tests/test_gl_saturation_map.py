@@ -9,9 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from addon.gl import OffscreenRenderer, composite
-
-T_STOP = 1e-4
+from addon.core.reference import T_STOP
+from addon.gl import OffscreenRenderer
 
 
 def expected_levels(alpha: np.ndarray, count: int) -> list[np.ndarray]:

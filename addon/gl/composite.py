@@ -28,6 +28,7 @@ import numpy as np
 
 from ..core.reference import DEPTH_FROM_ALPHA
 from . import shaders
+from .uniforms import set_uniform
 
 FIRST_BATCH = 1 / 16  # of the visible splats; each later batch doubles up to MAX_BATCH
 MAX_BATCH = 1 / 4
@@ -244,8 +245,7 @@ class Compositor:
         cs = self.sat_map[kind]
         cs["u_size"].value = size
         for name, value in uniforms.items():
-            if name in cs:
-                cs[name].value = value
+            set_uniform(cs, name, value)  # each pass keeps only the uniforms it reads
         cs.run((size[0] + 7) // 8, (size[1] + 7) // 8)
         self.ctx.memory_barrier()
 

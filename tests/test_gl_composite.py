@@ -107,6 +107,19 @@ def test_batched_early_termination_stays_within_its_bound(path, request):
     assert_early_termination_bound(stop, full, trimmed=path == "renderer")
 
 
+def test_early_termination_bound_on_a_real_capture(renderer, testdata):
+    """guitar.ply with its real (RDF) axes, 320x240: the map's culling and trimming keep
+    the frame within the early-termination bound of the full composite."""
+    item, cam = guitar_with_axes(testdata)
+    before = dict(renderer.stats)
+    stop = renderer.render([item], cam, RenderOptions(early_termination=True))
+    assert renderer.stats["saturation_passes"] > before["saturation_passes"]
+    full = renderer.render([item], cam, RenderOptions(early_termination=False))
+    assert (full.rgba[..., 3] > 1 - 1e-4).mean() > 0.05  # some pixels do stop early
+    assert np.abs(stop.rgba.astype(np.float64) - full.rgba).max() > 0
+    assert_early_termination_bound(stop, full, trimmed=True)
+
+
 def test_early_termination_against_both_references(renderer):
     """Within the 60 dB bar of the reference with early termination (INRIA's stop) and of
     the one without it (the full composite)."""

@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Print the path of a Python interpreter that the PyPI bpy of one Blender version needs:
-# 3.11 for Blender 4.5 and 5.0, 3.13 for 5.2. Usage: .ci/python_for.sh 5.2
+# 3.11 for Blender 4.5 and 5.0, 3.13 for 5.2 and 5.3. Usage: .ci/python_for.sh 5.2
 # Debian 12 packages no Python 3.13; this machine kind's image carries one under pyenv.
 set -euo pipefail
 case "${1:?usage: python_for.sh BLENDER_VERSION}" in
   4.5|5.0) want=3.11 ;;
-  5.2) want=3.13 ;;
-  *) echo "error: no known Python for Blender $1 (supported: 4.5 5.0 5.2)" >&2; exit 2 ;;
+  5.2|5.3) want=3.13 ;;
+  *) echo "error: no known Python for Blender $1 (supported: 4.5 5.0 5.2 5.3)" >&2; exit 2 ;;
 esac
 candidates=("python$want")
 root=$(pyenv root 2>/dev/null || echo "$HOME/.pyenv")

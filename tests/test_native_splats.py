@@ -103,41 +103,59 @@ def test_native_pointcloud_renders_through_the_splatline_engine(bpy_empty, tmp_p
     assert np.abs(images[0] - images[1]).max() <= 1  # the same frame as Splatline's import
 
 
-def _rna(*identifiers):
-    items = [SimpleNamespace(identifier=i) for i in identifiers]
-    return SimpleNamespace(properties={"render_as": SimpleNamespace(type="ENUM", enum_items=items)})
+def _rna_splat_item(bpy):
+    """The splat item of PointCloud.type, read here straight from RNA (independently of
+    native.py): 'GAUSSIAN_SPLAT' on Blender 5.3, None before it."""
+    prop = bpy.types.PointCloud.bl_rna.properties.get("type")
+    if prop is None or prop.type != "ENUM":
+        return None
+    return "GAUSSIAN_SPLAT" if "GAUSSIAN_SPLAT" in prop.enum_items else None
 
 
-def test_blender_draws_natively_only_a_pointcloud_set_to_its_splat_mode(bpy_empty):
+def test_blender_draws_natively_only_a_pointcloud_set_to_its_splat_type(bpy_empty):
     from addon.blender.data import native
 
     bpy = bpy_empty
-    rna = _rna("POINTS", "SPLATS")
-    assert native.splat_render_mode(rna) == "SPLATS"
-    assert native.splat_render_mode(_rna("POINTS", "SPHERES")) is None
-    assert native.drawn_natively(SimpleNamespace(bl_rna=rna, render_as="SPLATS"))
-    assert not native.drawn_natively(SimpleNamespace(bl_rna=rna, render_as="POINTS"))
+    item = _rna_splat_item(bpy)
+    assert native.splat_type() == item
     pointcloud = bpy.data.pointclouds.new("plain")
-    has_mode = "render_as" in bpy.types.PointCloud.bl_rna.properties
-    assert (native.splat_render_mode() is not None) == has_mode
-    assert native.drawn_natively(pointcloud) == (has_mode and pointcloud.render_as == "SPLATS")
+    assert not native.drawn_natively(pointcloud)  # a new PointCloud is plain points
+    assert not native.drawn_natively(bpy.data.meshes.new("mesh"))
+    assert native.mark_as_splats(pointcloud) == (item is not None)
+    assert native.drawn_natively(pointcloud) == (item is not None)
+    if item is not None:
+        assert pointcloud.type == item
+        pointcloud.type = "POINTS"
+        assert not native.drawn_natively(pointcloud)
 
 
-def test_viewport_overlay_skips_what_blender_draws_itself(bpy_empty, monkeypatch):
+def test_splatline_imports_are_native_splats_where_blender_has_them(bpy_empty, testdata):
+    from addon.blender.data import native
+
+    bpy = bpy_empty
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply")) == {"FINISHED"}
+    data = bpy.context.active_object.data
+    item = _rna_splat_item(bpy)
+    assert getattr(data, "type", None) == (item or getattr(data, "type", None))
+    assert native.drawn_natively(data) == (item is not None)
+
+
+def test_viewport_overlay_draws_what_blender_does_not(bpy_empty):
     from addon.blender.data import native
     from addon.blender.data.pointcloud import new_pointcloud_object
     from addon.blender.viewport.scene_items import SceneItems
 
     bpy = bpy_empty
-    new_pointcloud_object("ours", blob(10, 0, seed=1, centre=(0, 0, 0), spread=0.2))
-    native_object(bpy, "blenders", blob(10, 0, seed=2, centre=(1, 0, 0), spread=0.2))
+    ours = new_pointcloud_object("ours", blob(10, 0, seed=1, centre=(0, 0, 0), spread=0.2))
+    plain = new_pointcloud_object("plain", blob(10, 0, seed=2, centre=(1, 0, 0), spread=0.2))
+    if native.has_native_splats():
+        plain.data.type = "POINTS"  # the user switched it back: Blender draws dots only
     cache = SceneItems()
     bpy.context.view_layer.update()
     cache.collect(bpy.context)
-    assert sorted(cache.items) == ["blenders", "ours"]  # no native drawing in this Blender
-    monkeypatch.setattr(native, "drawn_natively", lambda data: data.original.name == "blenders")
-    cache.collect(bpy.context)
-    assert sorted(cache.items) == ["ours"]
+    want = ["plain"] if native.has_native_splats() else ["ours", "plain"]
+    assert sorted(cache.items) == want
+    assert native.drawn_natively(ours.data) == native.has_native_splats()
 
 
 def test_file_handler_is_one_named_choice_beside_blenders_own(bpy_empty):

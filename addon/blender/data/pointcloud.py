@@ -16,6 +16,7 @@ import bpy
 
 from ...core.formats._common import normalize_quats_
 from ...core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
+from .native import mark_as_splats
 
 BASE = "radiance:base"
 log = logging.getLogger("splatline")
@@ -169,6 +170,7 @@ def new_pointcloud_object(name: str, splats: SplatSet, collection=None) -> bpy.t
         obj = bpy.data.objects.new(name, mesh)
         pointcloud = _convert_to_pointcloud(obj)
         _fill(pointcloud, splats)
+        mark_as_splats(pointcloud)  # Blender 5.3+: its own engines render it too
         pointcloud.name = name
         _relink(obj, collection)
     except BaseException:

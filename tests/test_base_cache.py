@@ -54,9 +54,9 @@ def test_prune_and_reads_on_two_threads(bpy_empty, monkeypatch):
     monkeypatch.setattr(evaluate, "splats_from_pointcloud", lambda data: tiny.subset(np.arange(1)))
     monkeypatch.setattr(cache, "key", lambda obj, depsgraph: (("data", obj.name), obj.name, 0, 1, None, 0))
 
-    class Fake:  # an evaluated object as get() sees it: key() and .data only
+    class Fake:  # an evaluated object as get() sees it: key(), .data and no modifiers
         def __init__(self, name):
-            self.name, self.data = name, None
+            self.name, self.data, self.modifiers = name, None, ()
 
     errors = []
 
@@ -124,7 +124,7 @@ def test_a_store_during_prune_waits_for_it(bpy_empty, monkeypatch):
 
     class Fake:
         def __init__(self, name):
-            self.name, self.data = name, None
+            self.name, self.data, self.modifiers = name, None, ()
 
     cache.entries = Entries({("data", f"deleted{i}"): None for i in range(3)})
     errors = []

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from addon.core.scene import RenderItem
-from viewport_scene import blob, camera_for, draw_offscreen, psnr
+from viewport_scene import blob, camera_for, draw_offscreen, overlay_drawn, psnr
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +88,7 @@ def _splat_object(bpy, name, splats):
 
     obj = bpy.data.objects.new(name, new_pointcloud(name, splats))
     bpy.context.scene.collection.objects.link(obj)
-    return obj
+    return overlay_drawn(obj)
 
 
 def _translate_modifier(bpy, obj):
@@ -333,9 +333,9 @@ def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
     from animation_scene import add_object, grid_splats
 
     bpy = bpy_empty
-    obj = add_object("cap", grid_splats(n_side=5))
-    target = add_object("goal", grid_splats(n_side=5, seed=9), location=(0.0, 0.0, 2.0))
-    plain = add_object("plain", grid_splats(n_side=3, seed=4))
+    obj = overlay_drawn(add_object("cap", grid_splats(n_side=5)))
+    target = overlay_drawn(add_object("goal", grid_splats(n_side=5, seed=9), location=(0.0, 0.0, 2.0)))
+    plain = overlay_drawn(add_object("plain", grid_splats(n_side=3, seed=4)))
     bpy.context.view_layer.objects.active = obj
     with bpy.context.temp_override(object=obj):
         bpy.ops.splatline.effect_add(type="REVEAL")

@@ -19,6 +19,9 @@ from ...core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 from .native import mark_as_splats
 
 BASE = "radiance:base"
+# On the object that holds another splat object's evaluated splats for Blender's engines
+# (evaluated_geometry.py): it is that object's output, not a splat object of its own.
+COMPANION_MARK = "splatline_evaluated_of"
 log = logging.getLogger("splatline")
 _FLOAT4_TYPE = "FLOAT4" if "FLOAT4" in bpy.types.Attribute.bl_rna.properties["data_type"].enum_items else "FLOAT_COLOR"
 _VALUE_KEYS: dict[str, str] = {}
@@ -51,7 +54,7 @@ def is_splat_object(obj, *, with_splat_data: bool = False) -> bool:
     own), or one playing a splat sequence: its splats come from files, so its own data may
     hold none. with_splat_data=True keeps only the first kind, for callers that read the
     object's own attributes (export, camera framing, the sequence operators)."""
-    if obj is None or obj.type != "POINTCLOUD":
+    if obj is None or obj.type != "POINTCLOUD" or COMPANION_MARK in obj.keys():
         return False
     if is_splat_data(obj.data):
         return True
@@ -183,6 +186,17 @@ def new_pointcloud_object(name: str, splats: SplatSet, collection=None) -> bpy.t
         if mesh.name in bpy.data.meshes and mesh.users == 0:
             bpy.data.meshes.remove(mesh)
     return obj
+
+
+def overwrite_pointcloud(pointcloud, splats: SplatSet) -> None:
+    """Replace a PointCloud's splats in place (Blender 5.3+, whose PointCloud has `resize`):
+    the datablock, its users and its type stay; Blender re-evaluates it."""
+    if len(pointcloud.points) != splats.count:
+        pointcloud.resize(splats.count)
+    if splats.count:
+        _set(pointcloud.attributes, "position", "FLOAT_VECTOR", splats.positions)
+        write_attributes(pointcloud.attributes, splats)
+    pointcloud.update_tag()
 
 
 def _fill(pointcloud, splats: SplatSet) -> None:

@@ -23,6 +23,7 @@ from ...core.effects import evaluate_stack
 from ...core.effects.morph import MorphCache
 from ...core.scene import RenderItem
 from . import effect_params
+from ..data.evaluated_geometry import handoff_modifier, own_data
 from ..data.pointcloud import (BASE, is_splat_object, plays_sequence, splats_from_pointcloud,
                                value_key)
 
@@ -78,10 +79,11 @@ class BaseCache:
 
     def key(self, obj_eval, depsgraph) -> tuple:
         original = obj_eval.original
-        data = obj_eval.data
+        data = own_data(obj_eval, depsgraph)
         data_name = data.original.name_full
         count = len(data.points)
-        modified = len(original.modifiers) > 0
+        # with a handoff (5.3+) the object's own data is read, before any modifier
+        modified = len(original.modifiers) > 0 and handoff_modifier(original) is None
         slot = ("object", original.name_full) if modified else ("data", data_name)
         frame = depsgraph.scene_eval.frame_float if modified else None
         with self.lock:
@@ -93,7 +95,7 @@ class BaseCache:
         with self.lock:
             hit = self.entries.get(key[0])
         if hit is None or hit[0] != key:
-            splats = splats_from_pointcloud(obj_eval.data)
+            splats = splats_from_pointcloud(own_data(obj_eval, depsgraph))
             for array in (splats.positions, splats.scales, splats.rotations, splats.opacities,
                           splats.sh_dc, splats.sh_rest):
                 array.flags.writeable = False

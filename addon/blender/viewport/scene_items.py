@@ -175,7 +175,7 @@ class SceneItems:
             if obj_eval.type != "POINTCLOUD" or not is_splat_object(obj_eval) \
                     or not evaluate.shown(obj_eval):
                 continue
-            if native.drawn_natively(obj_eval.data):  # Blender 5.3+ draws it: never twice
+            if native.drawn_natively(obj_eval.original.data):  # Blender draws it: never twice
                 continue
             original = obj_eval.original
             if original.visible_get(view_layer=view_layer, viewport=space):

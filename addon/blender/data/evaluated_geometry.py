@@ -1,0 +1,123 @@
+"""The geometry Blender's own engines draw for a splat object whose splats Splatline changes.
+
+On a Blender with native splats (native.py), Workbench, EEVEE and Cycles render an object's
+evaluated geometry. Splatline's look, effects, crop, morphs and sequences are Python, and
+Python cannot be a modifier, so the evaluated splats reach Blender this way:
+- a companion object, linked into no scene, holds them in its own PointCloud (set to the
+  splat type), written by evaluate/native_handoff.py whenever they change;
+- a Geometry Nodes modifier, last on the splat object, puts the companion's geometry in
+  place of the object's own (Object Info, "Original" space: the companion's data is already
+  in the object's space).
+
+Measured on bpy 5.3.0: the companion is not listed in `depsgraph.objects` (it renders only
+through the modifier); Object Info hands over every attribute and the GAUSSIAN_SPLAT type,
+also for an empty PointCloud; the pair survives save and reload.
+
+Splatline itself always reads the object's own data (`own_data`), never the modifier's
+output, so nothing is evaluated twice. With a handoff, modifiers before it are not seen by
+Splatline: it reads the object's PointCloud as stored.
+
+The node group is one per object: Object Info's object is a node value, since a Geometry
+Nodes modifier's group inputs take no ID values from Python on 5.x.
+"""
+from __future__ import annotations
+
+import bpy
+
+from . import native
+from .pointcloud import COMPANION_MARK, overwrite_pointcloud
+
+MODIFIER = "Splatline"
+GROUP_MARK = "splatline_evaluated"        # on the node group
+
+
+def handoff_modifier(obj):
+    """The handoff modifier of an object (original or evaluated), or None."""
+    for modifier in reversed(obj.modifiers):
+        group = getattr(modifier, "node_group", None)
+        if modifier.type == "NODES" and group is not None and group.get(GROUP_MARK):
+            return modifier
+    return None
+
+
+def companion(obj):
+    """The companion object holding obj's evaluated splats, or None without a handoff."""
+    modifier = handoff_modifier(obj)
+    if modifier is None:
+        return None
+    for node in modifier.node_group.nodes:
+        if node.bl_idname == "GeometryNodeObjectInfo":
+            return node.inputs["Object"].default_value
+    return None
+
+
+def is_companion(obj) -> bool:
+    return obj is not None and COMPANION_MARK in obj.keys()
+
+
+def own_data(obj_eval, depsgraph):
+    """The PointCloud holding the object's own splats at the depsgraph's state: the evaluated
+    data, or with a handoff, the object's data before its modifiers."""
+    if handoff_modifier(obj_eval) is None:
+        return obj_eval.data
+    return obj_eval.original.data.evaluated_get(depsgraph)
+
+
+def install(obj):
+    """Give obj a companion and the modifier that shows it; returns the companion.
+    Atomic: on failure nothing new is left behind."""
+    found = companion(obj)
+    if found is not None:
+        return found
+    made = []
+    try:
+        data = bpy.data.pointclouds.new(f"{obj.name} (evaluated)")
+        made.append((bpy.data.pointclouds, data))
+        native.mark_as_splats(data)
+        other = bpy.data.objects.new(f"{obj.name} (evaluated)", data)
+        made.append((bpy.data.objects, other))
+        other[COMPANION_MARK] = obj.name
+        group = _node_group(f"Splatline evaluated: {obj.name}", other)
+        made.append((bpy.data.node_groups, group))
+        modifier = obj.modifiers.new(MODIFIER, "NODES")
+        modifier.node_group = group
+        modifier.show_in_editmode = False
+        return other
+    except BaseException:
+        for collection, block in reversed(made):
+            collection.remove(block)
+        raise
+
+
+def _node_group(name, source):
+    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    group[GROUP_MARK] = True
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    info = group.nodes.new("GeometryNodeObjectInfo")
+    info.transform_space = "ORIGINAL"
+    info.inputs["Object"].default_value = source
+    out = group.nodes.new("NodeGroupOutput")
+    out.location = (300, 0)
+    group.links.new(info.outputs["Geometry"], out.inputs["Geometry"])
+    return group
+
+
+def remove(obj) -> None:
+    """Take obj's handoff away: modifier, node group, companion and its data."""
+    modifier = handoff_modifier(obj)
+    if modifier is None:
+        return
+    other, group = companion(obj), modifier.node_group
+    obj.modifiers.remove(modifier)
+    if group.users == 0:
+        bpy.data.node_groups.remove(group)
+    if other is not None:
+        data = other.data
+        bpy.data.objects.remove(other)
+        if data is not None and data.users == 0:
+            bpy.data.pointclouds.remove(data)
+
+
+def write(other, splats) -> None:
+    """The companion's PointCloud now holds `splats` (object space, look folded in)."""
+    overwrite_pointcloud(other.data, splats)

@@ -1,0 +1,194 @@
+"""Blender 5.3: the splats Blender's own engines draw are Splatline's evaluated splats.
+
+Each test reads what Blender itself evaluates (the object's evaluated geometry in the
+depsgraph an engine renders from, or the pixels an engine writes), on real captures with
+their axes on the object. Skipped where Blender has no native splats (4.5 .. 5.2)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
+
+
+@pytest.fixture
+def native_bpy(bpy_empty):
+    from addon.blender.data import native
+
+    if not native.has_native_splats():
+        pytest.skip("this Blender has no native splats (PointCloud.type GAUSSIAN_SPLAT: 5.3+)")
+    return bpy_empty
+
+
+def _effect(bpy, obj, kind, **props):
+    bpy.context.view_layer.objects.active = obj
+    with bpy.context.temp_override(object=obj):
+        assert bpy.ops.splatline.effect_add(type=kind) == {"FINISHED"}
+    effect = obj.splatline.effects[-1]
+    for name, value in props.items():
+        setattr(effect, name, value)
+    return effect
+
+
+def _key(owner, path, values):
+    for frame, value in values:
+        setattr(owner, path, value)
+        owner.keyframe_insert(path, frame=frame)
+
+
+def _three_effect_guitar(bpy, testdata, count=0):
+    """guitar.ply as a user imports it (RDF axes as a rotation on the object), with a keyed
+    reveal, a twist and an explode, and a keyed look (tint, opacity)."""
+    from addon.blender.data.files import import_file
+
+    obj = import_file(bpy.context, str(testdata / "guitar.ply"), max_count=count)
+    assert obj.rotation_euler[:] != (0.0, 0.0, 0.0)  # the file's axes sit on the object
+    _key(_effect(bpy, obj, "REVEAL", edge_width=0.2), "progress", ((1, -0.5), (9, 0.8)))
+    _key(_effect(bpy, obj, "TWIST"), "twist", ((1, 0.0), (9, 1.2)))
+    _effect(bpy, obj, "EXPLODE", start_frame=3.0, strength=0.5)
+    obj.splatline.look.tint = (1.0, 0.8, 0.6)
+    _key(obj.splatline.look, "opacity", ((1, 0.6), (9, 1.0)))
+    bpy.context.view_layer.update()
+    return obj
+
+
+class Recorder:
+    """A frame_change_post handler that runs after Splatline's: what Blender evaluated for
+    the object against collect_items' splats (look folded in) of the same depsgraph."""
+
+    def __init__(self, obj):
+        self.name, self.seen = obj.name_full, []
+
+    def __call__(self, scene, depsgraph):
+        import bpy
+
+        from addon.blender.data.pointcloud import splats_from_pointcloud
+        from addon.blender.evaluate.items import collect_items
+        from addon.core.bake import baked_splats
+
+        obj = bpy.data.objects[self.name]
+        got = splats_from_pointcloud(obj.evaluated_get(depsgraph).data)
+        item = next(i for i in collect_items(depsgraph) if i.key[0] == self.name)
+        self.seen.append((scene.frame_current, depsgraph.mode, got, baked_splats(item)))
+
+
+@pytest.fixture
+def recorder(native_bpy):
+    import bpy
+
+    made = []
+
+    def attach(obj):
+        made.append(Recorder(obj))
+        bpy.app.handlers.frame_change_post.append(made[-1])
+        return made[-1]
+
+    yield attach
+    for r in made:
+        bpy.app.handlers.frame_change_post.remove(r)
+
+
+def _tiny_workbench(scene, path):
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.render.resolution_x = scene.render.resolution_y = 8
+    scene.render.resolution_percentage = 100
+    scene.render.filepath = str(path)
+
+
+def _assert_blender_sees_items(seen, frames):
+    assert [f for f, mode, *_ in seen if mode == "RENDER"] == list(frames)
+    for frame, mode, got, want in seen:
+        assert got.count == want.count, (frame, mode)
+        for field in FIELDS:
+            np.testing.assert_array_equal(getattr(got, field), getattr(want, field),
+                                          err_msg=f"frame {frame} ({mode}): {field}")
+    renders = [got for _f, mode, got, _w in seen if mode == "RENDER"]
+    for a, b in zip(renders, renders[1:]):  # the stack really moves: no frame equals the next
+        assert not np.array_equal(a.positions, b.positions)
+        assert not np.array_equal(a.opacities, b.opacities)
+
+
+def test_blender_renders_the_evaluated_splats_f12(native_bpy, testdata, tmp_path, recorder):
+    bpy = native_bpy
+    obj = _three_effect_guitar(bpy, testdata)
+    record = recorder(obj)
+    scene = bpy.context.scene
+    add_camera(bpy)
+    frames = (2, 5, 8)
+    for frame in frames:
+        scene.frame_set(frame)
+        _tiny_workbench(scene, tmp_path / f"still_{frame}.png")
+        bpy.ops.render.render(write_still=True)
+    _assert_blender_sees_items(record.seen, frames)
+
+
+def test_blender_renders_the_evaluated_splats_animation(native_bpy, testdata, tmp_path, recorder):
+    bpy = native_bpy
+    obj = _three_effect_guitar(bpy, testdata)
+    record = recorder(obj)
+    scene = bpy.context.scene
+    add_camera(bpy)
+    scene.frame_start, scene.frame_end = 3, 6
+    _tiny_workbench(scene, tmp_path / "anim_")
+    bpy.ops.render.render(animation=True)
+    _assert_blender_sees_items(record.seen, range(3, 7))
+
+
+def add_camera(bpy):
+    from engine_scene import add_camera as add
+
+    return add(bpy, location=(0.0, -4.0, 0.0))
+
+
+def test_companion_only_where_splatline_changes_the_splats(native_bpy, testdata):
+    from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.evaluate.items import collect_items
+
+    bpy = native_bpy
+    bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply"))
+    obj = bpy.context.view_layer.objects.active
+    bpy.context.view_layer.update()
+    assert geometry.handoff_modifier(obj) is None  # Blender draws the stored splats
+    plain = collect_items(bpy.context.evaluated_depsgraph_get())[0].splats
+    _effect(bpy, obj, "EXPLODE", start_frame=1.0)
+    bpy.context.scene.frame_set(4)
+    other = geometry.companion(obj)
+    assert other is not None and other.name not in bpy.context.scene.objects
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    assert [o.name for o in depsgraph.objects if o.type == "POINTCLOUD"] == [obj.name]
+    items = collect_items(depsgraph)
+    assert len(items) == 1  # the companion is not a second splat object
+    obj.splatline.effects[0].enabled = False
+    bpy.context.view_layer.update()
+    again = collect_items(bpy.context.evaluated_depsgraph_get())[0].splats
+    for field in FIELDS:  # Splatline reads the stored splats, not the handed-off ones
+        np.testing.assert_array_equal(getattr(again, field), getattr(plain, field), err_msg=field)
+    got = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    assert len(got.points) == plain.count
+
+
+def test_cycles_renders_a_revealing_splatline_import(native_bpy, testdata, tmp_path):
+    """Cycles ray-traces a Splatline import as splats (not black silhouettes), and the
+    reveal's keyed progress shows in its frames."""
+    from engine_scene import guitar_scene, read_image
+
+    bpy = native_bpy
+    scene, _centre, _size = guitar_scene(bpy, testdata, (1, 2), 48, 32, 20000)
+    obj = next(o for o in scene.objects if o.type == "POINTCLOUD")
+    _key(_effect(bpy, obj, "REVEAL", edge_width=0.05), "progress", ((1, -0.1), (2, 0.6)))
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 4
+    scene.cycles.use_denoising = False
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGBA"
+    frames = {}
+    for frame in (1, 2):
+        scene.frame_set(frame)
+        scene.render.filepath = str(tmp_path / f"cycles_{frame}.png")
+        bpy.ops.render.render(write_still=True)
+        frames[frame] = read_image(tmp_path / f"cycles_{frame}.png").astype(np.float64) / 255
+    covered = {f: px[..., 3] > 0.5 for f, px in frames.items()}
+    assert covered[2].sum() >= covered[1].sum() + 20  # more of the guitar is revealed
+    revealed = frames[2][covered[2]][:, :3]
+    assert revealed.mean() > 0.15 and revealed.max() > 0.4  # lit colours, not silhouettes

@@ -118,6 +118,28 @@ def remove(obj) -> None:
             bpy.data.pointclouds.remove(data)
 
 
-def write(other, splats) -> None:
-    """The companion's PointCloud now holds `splats` (object space, look folded in)."""
-    overwrite_pointcloud(other.data, splats)
+def _same(a, b) -> bool:
+    """The same array, or a view of exactly its memory (with_sh_degree's full-degree view).
+    Safe by address because `held` keeps the old arrays alive: their memory is not reused."""
+    return a is b or (a.__array_interface__ == b.__array_interface__)
+
+
+# What a companion holds, by SplatSet field: opacities and sh_dc share one attribute.
+_GROUPS = {"positions": ("positions",), "scales": ("scales",), "rotations": ("rotations",),
+           "base": ("opacities", "sh_dc"), "sh_rest": ("sh_rest",)}
+
+
+def write(other, splats, held=None) -> dict:
+    """The companion's PointCloud now holds `splats` (object space, look folded in).
+
+    `held`: what the last write returned for this companion, or None. Arrays that are the
+    very ones written last time (the evaluator's caches are read-only, and an effect makes
+    new arrays for what it changes) are not written again: a fade rewrites one attribute of
+    the 19 a degree-3 capture has. Returns what to pass next time."""
+    arrays = {group: tuple(getattr(splats, f) for f in fields) for group, fields in _GROUPS.items()}
+    unchanged = frozenset()
+    if held is not None and held.get("count") == splats.count:
+        unchanged = frozenset(g for g, a in arrays.items()
+                              if len(a) == len(held.get(g, ())) and all(map(_same, a, held[g])))
+    overwrite_pointcloud(other.data, splats, unchanged)
+    return {"count": splats.count, **arrays}

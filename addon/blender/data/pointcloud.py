@@ -132,19 +132,25 @@ def per_coefficient(rest: np.ndarray) -> np.ndarray:
     return swap01(rest)
 
 
-def write_attributes(attributes, splats: SplatSet) -> None:
+def write_attributes(attributes, splats: SplatSet, unchanged=frozenset()) -> None:
     """Every splat attribute except position, on a geometry with splats.count points.
-    sh attributes beyond the set's degree are removed, so a lower degree leaves none behind."""
-    _set(attributes, "scale", "FLOAT_VECTOR", splats.scales)
-    _set(attributes, "rotation", "QUATERNION", splats.rotations)
-    base = np.empty((splats.count, 4), np.float32)
-    base[:, :3] = splats.sh_dc
-    base[:, 3] = splats.opacities
-    _set(attributes, BASE, _FLOAT4_TYPE, base)
-    rest = per_coefficient(splats.sh_rest)
-    for k in range(rest.shape[0]):
-        _set(attributes, sh_name(k), "FLOAT_VECTOR", rest[k])
-    k = rest.shape[0]
+    sh attributes beyond the set's degree are removed, so a lower degree leaves none behind.
+    `unchanged` names SplatSet fields the geometry already holds ("scales", "rotations",
+    "base" for opacities and sh_dc together, "sh_rest"): those are not written again."""
+    if "scales" not in unchanged:
+        _set(attributes, "scale", "FLOAT_VECTOR", splats.scales)
+    if "rotations" not in unchanged:
+        _set(attributes, "rotation", "QUATERNION", splats.rotations)
+    if "base" not in unchanged:
+        base = np.empty((splats.count, 4), np.float32)
+        base[:, :3] = splats.sh_dc
+        base[:, 3] = splats.opacities
+        _set(attributes, BASE, _FLOAT4_TYPE, base)
+    k = sh_coeff_count(splats.sh_degree)
+    if "sh_rest" not in unchanged:
+        rest = per_coefficient(splats.sh_rest)
+        for i in range(k):
+            _set(attributes, sh_name(i), "FLOAT_VECTOR", rest[i])
     while sh_name(k) in attributes:
         attributes.remove(attributes[sh_name(k)])
         k += 1
@@ -188,14 +194,17 @@ def new_pointcloud_object(name: str, splats: SplatSet, collection=None) -> bpy.t
     return obj
 
 
-def overwrite_pointcloud(pointcloud, splats: SplatSet) -> None:
+def overwrite_pointcloud(pointcloud, splats: SplatSet, unchanged=frozenset()) -> None:
     """Replace a PointCloud's splats in place (Blender 5.3+, whose PointCloud has `resize`):
-    the datablock, its users and its type stay; Blender re-evaluates it."""
+    the datablock, its users and its type stay; Blender re-evaluates it. `unchanged`: as
+    write_attributes, plus "positions"; ignored when the point count changes."""
     if len(pointcloud.points) != splats.count:
         pointcloud.resize(splats.count)
+        unchanged = frozenset()
     if splats.count:
-        _set(pointcloud.attributes, "position", "FLOAT_VECTOR", splats.positions)
-        write_attributes(pointcloud.attributes, splats)
+        if "positions" not in unchanged:
+            _set(pointcloud.attributes, "position", "FLOAT_VECTOR", splats.positions)
+        write_attributes(pointcloud.attributes, splats, unchanged)
     pointcloud.update_tag()
 
 

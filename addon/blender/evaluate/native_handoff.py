@@ -16,6 +16,7 @@ Splatline's own engine reads items itself: its renders skip the handoff.
 """
 from __future__ import annotations
 
+import contextlib
 import threading
 
 import numpy as np
@@ -50,8 +51,9 @@ def _written_key(item: RenderItem | None) -> tuple:
 
 
 class Handoff:
-    """What each companion holds (by its session uid), so a frame writes only what changed.
-    One lock: a render thread and the UI may both sync."""
+    """What each companion holds (by its session uid): the item's key, so an unchanged item
+    is not written again, and the arrays written, so a changed one writes only its changed
+    attributes. One lock: a render thread and the UI may both sync."""
 
     def __init__(self):
         self.lock = threading.Lock()
@@ -81,12 +83,21 @@ class Handoff:
                 return False
             other = geometry.install(original)
         key = _written_key(item)
-        if self.written.get(other.session_uid) == key:
+        held = self.written.get(other.session_uid)
+        if held is not None and held[0] == key:
             return False
         splats = baked_splats(item) if item is not None else SplatSet.allocate(0, 0)
-        geometry.write(other, splats)
-        self.written[other.session_uid] = key
+        arrays = geometry.write(other, splats, held[1] if held is not None else None)
+        self.written[other.session_uid] = (key, arrays)
         return True
+
+    @contextlib.contextmanager
+    def settling(self):
+        self.syncing = True
+        try:
+            yield
+        finally:
+            self.syncing = False
 
     def clear(self) -> None:
         with self.lock:
@@ -110,7 +121,8 @@ def _on_frame_change(scene, depsgraph):
     if depsgraph is None or _skipped(scene, depsgraph):
         return
     if sync(depsgraph):
-        depsgraph.update()  # the engine syncs right after this handler: let it see the write
+        with _HANDOFF.settling():  # its depsgraph_update_post has nothing new to sync
+            depsgraph.update()  # the engine syncs right after this handler: let it see the write
 
 
 def _touches_splats(depsgraph) -> bool:

@@ -1,6 +1,7 @@
 """Shared fixtures. Core tests need no bpy; blender tests use the real bpy module."""
 from __future__ import annotations
 
+import os
 import pathlib
 import sys
 
@@ -9,6 +10,55 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TESTDATA = ROOT.parent / "shared" / "testdata"
 sys.path.insert(0, str(ROOT))
+
+# Blender's GPU backend for this run: SPLATLINE_GPU_BACKEND=VULKAN|OPENGL (the Makefile sets it;
+# unset means Blender's default). tests/test_gpu_backend.py fails the run when Blender starts
+# another one, so a silent fallback never passes for the backend asked for.
+# Choosing it must happen before `import bpy`, and not through the preference: the bpy module
+# starts from factory settings (no userpref.blend, no command line, so no --gpu-backend) and
+# fixes its backend from preferences.system.gpu_backend at import; setting the preference
+# later leaves gpu.platform.backend_type_get() unchanged (measured on bpy 5.3.0). Blender tries
+# the preferred backend, then OpenGL, then Vulkan, so OPENGL on 5.3 (whose default is Vulkan)
+# is had by hiding the Vulkan drivers from the Vulkan loader; subprocesses inherit that.
+# VULKAN needs nothing: 5.3's default, given a Vulkan driver (.ci/sysdeps.sh installs lavapipe).
+GPU_BACKENDS = ("VULKAN", "OPENGL")
+GPU_BACKEND = os.environ.get("SPLATLINE_GPU_BACKEND", "").strip().upper() or None
+if GPU_BACKEND == "OPENGL":
+    for _var in ("VK_DRIVER_FILES", "VK_ICD_FILENAMES"):  # the loader's name, its older name
+        os.environ[_var] = str(ROOT / "no-vulkan-driver.json")  # no such file: no driver
+
+# Test files that draw through Blender's gpu module (viewport drawing, the engine's
+# Blender-GPU path): marked gpu_module, they run once more on every further backend a
+# Blender version is tested on (the Makefile's GPU_BACKENDS). test_gpu_backend.py checks
+# this list against what the test files use.
+GPU_MODULE_TESTS = frozenset({
+    "test_engine_gpu.py",
+    "test_engine_paths.py",
+    "test_footprint.py",
+    "test_gpu_backend.py",
+    "test_tie_order.py",
+    "test_viewport.py",
+    "test_viewport_blender.py",
+    "test_viewport_display_modes.py",
+    "test_viewport_memory.py",
+})
+
+
+def pytest_configure(config):
+    if GPU_BACKEND is not None and GPU_BACKEND not in GPU_BACKENDS:
+        raise pytest.UsageError(f"SPLATLINE_GPU_BACKEND={GPU_BACKEND}: expected one of {GPU_BACKENDS}")
+    config.addinivalue_line(
+        "markers", "gpu_module: draws through Blender's gpu module (GPU_MODULE_TESTS in conftest)")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.path.name in GPU_MODULE_TESTS:
+            item.add_marker(pytest.mark.gpu_module)
+
+
+def pytest_report_header(config):
+    return f"Blender GPU backend asked for: {GPU_BACKEND or 'default (SPLATLINE_GPU_BACKEND unset)'}"
 
 
 @pytest.fixture(scope="session")

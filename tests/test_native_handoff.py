@@ -192,3 +192,31 @@ def test_cycles_renders_a_revealing_splatline_import(native_bpy, testdata, tmp_p
     assert covered[2].sum() >= covered[1].sum() + 20  # more of the guitar is revealed
     revealed = frames[2][covered[2]][:, :3]
     assert revealed.mean() > 0.15 and revealed.max() > 0.4  # lit colours, not silhouettes
+
+
+def test_blender_renders_a_sequence_and_a_hidden_morph_target(native_bpy, tmp_path, recorder):
+    """A sequence's frames come from files, not its own data; a morph target whose Look >
+    Show is off must not be drawn by Blender either."""
+    from addon.blender.data import evaluated_geometry as geometry
+    from test_sequence_blender import write_frames
+
+    bpy = native_bpy
+    write_frames(tmp_path / "seq", count=3, n=50)
+    assert bpy.ops.import_scene.splatline_sequence(directory=str(tmp_path / "seq")) == {"FINISHED"}
+    obj = bpy.context.view_layer.objects.active
+    record = recorder(obj)
+    scene = bpy.context.scene
+    add_camera(bpy)
+    scene.frame_start, scene.frame_end = 1, 3
+    _tiny_workbench(scene, tmp_path / "seq_")
+    bpy.ops.render.render(animation=True)
+    _assert_blender_sees_items(record.seen, (1, 2, 3))
+    from addon.blender.data.pointcloud import new_pointcloud_object
+    from viewport_scene import blob
+
+    target = new_pointcloud_object("target", blob(30, 1, seed=3, centre=(0, 0, 0), spread=0.2))
+    assert len(target.data.points) == 30 and target.data.type == "GAUSSIAN_SPLAT"
+    target.splatline.look.visible = False
+    bpy.context.view_layer.update()
+    shown = target.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    assert geometry.companion(target) is not None and len(shown.points) == 0

@@ -15,7 +15,7 @@ from .core.errors import SplatFormatError
 
 COMMANDS = {
     "info": "print a splat file's count, SH degree, format and bounds",
-    "convert": "convert a splat file to another format",
+    "convert": "convert splat files, or splat objects of a .blend, to another format",
     "import": "import splat files into a new .blend",
     "render": "render a .blend, or a bare capture under an added camera, with the Splatline engine",
     "demo": "build, animate and render the demo scene",

@@ -4,17 +4,16 @@ itself holds), and matches splat-transform's layout."""
 from __future__ import annotations
 
 import gzip
-import json
-import zipfile
 
 import numpy as np
 import pytest
 
 from addon.core.formats import detect_format, format_for_output, read, write
-from addon.core.formats.sog_write import log_transform, palette_size, sog_order
+from addon.core.formats.sog_write import palette_size
 from addon.core.formats.spz import _read_v4
 from addon.core.formats.spz_write import encode_spz
 from addon.core.quantize import assign, codebook_1d, kmeans, nearest_1d
+from format_steps import assert_sog_within_steps, assert_spz_within_steps, sog_meta
 from webp_support import needs_straight_webp
 
 CAPTURES = ["guitar", "test64"]
@@ -35,17 +34,6 @@ def test_spz_v4_attribute_bytes_match_splat_transform(testdata, capture):
         assert np.array_equal(a, b)
 
 
-def _rot_bound_dot(half_step):
-    """Three stored components off by <= h each; the rebuilt largest one by <= 3h (it is
-    the largest, so d|c|/d(stored) <= 1): |dq|^2 <= 12 h^2, dot >= 1 - 6 h^2."""
-    return 1.0 - 6.0 * half_step ** 2 - 1e-6
-
-
-def _same_rotation(back, ref, half_step):
-    dot = np.abs(np.einsum("ij,ij->i", back.astype(np.float64), ref.astype(np.float64)))
-    assert dot.min() >= _rot_bound_dot(half_step)
-
-
 @pytest.mark.parametrize("version", [4, 3])
 def test_spz_round_trip_within_steps(capture, tmp_path, version):
     name, src = capture
@@ -53,30 +41,7 @@ def test_spz_round_trip_within_steps(capture, tmp_path, version):
     write(out, src, version=version)
     raw = out.read_bytes()
     assert raw[:4] == b"NGSP" if version == 4 else gzip.decompress(raw)[4] == 3
-    back = read(out)
-    assert back.count == src.count and back.sh_degree == src.sh_degree
-    tol32 = np.abs(src.positions) * 1.2e-7  # float32 rounding of the decoded value
-    assert (np.abs(back.positions - src.positions) <= 0.5 / 4096 + tol32).all()
-    assert np.abs(back.opacities - src.opacities).max() <= 0.5 / 255 + 1e-6
-    dc = np.clip(src.sh_dc, -0.5 / 0.15, 0.5 / 0.15)  # the u8 colour range
-    assert np.abs(back.sh_dc - dc).max() <= 0.5 / 255 / 0.15 + 1e-5
-    log_s = np.clip(np.log(src.scales), -10, 255 / 16 - 10)
-    assert np.abs(np.log(back.scales) - log_s).max() <= 0.5 / 16 + 1e-5
-    _same_rotation(back.rotations, src.rotations, 0.5 * np.sqrt(0.5) / 511)
-    if src.sh_degree:  # rounding to 1/128, then snapping to buckets of 8 (band 1) / 16
-        err = np.abs(back.sh_rest - np.clip(src.sh_rest, -1, 127 / 128)) * 128
-        assert err[:, :3].max() <= 0.5 + 4 + 1e-3
-        assert err[:, 3:].max() <= 0.5 + 8 + 1e-3
-
-
-def _sog_meta(path):
-    with zipfile.ZipFile(path) as z:
-        return json.loads(z.read("meta.json"))
-
-
-def _nearest_error(values, codebook):
-    book = np.asarray(codebook, np.float32)
-    return np.abs(book[nearest_1d(values.astype(np.float32), book).astype(np.int64)] - values)
+    assert_spz_within_steps(read(out), src)
 
 
 @needs_straight_webp
@@ -85,25 +50,11 @@ def test_sog_round_trip_within_steps(capture, tmp_path):
     out = tmp_path / "o.sog"
     write(out, src)
     assert detect_format(out) == "sog"
-    back, meta = read(out), _sog_meta(out)
-    ref = src.subset(sog_order(src.positions))
-    assert back.count == src.count and back.sh_degree == src.sh_degree and meta["count"] == src.count
-    span = np.array(meta["means"]["maxs"]) - np.array(meta["means"]["mins"])
-    t_err = np.abs(log_transform(back.positions.astype(np.float64)) - log_transform(ref.positions.astype(np.float64)))
-    assert (t_err <= span / 65535 / 2 * (1 + 1e-6) + 1e-6).all()
-    # codebook columns: each value decodes to the codebook entry nearest to it
-    log_err = np.abs(np.log(back.scales) - np.log(ref.scales))
-    assert (log_err <= _nearest_error(np.log(ref.scales), meta["scales"]["codebook"]) + 1e-5).all()
-    assert (np.abs(back.sh_dc - ref.sh_dc) <= _nearest_error(ref.sh_dc, meta["sh0"]["codebook"]) + 1e-6).all()
-    visible = ref.opacities >= 0.5 / 255
-    assert np.abs(back.opacities - ref.opacities)[visible].max() <= 0.5 / 255 + 1e-6
-    assert (back.opacities[~visible] == np.float32(1 / 255)).all()  # alpha kept >= 1
-    _same_rotation(back.rotations, ref.rotations, 1 / (255 * np.sqrt(2)))
+    meta = sog_meta(out)
+    assert_sog_within_steps(read(out), src, meta)
     if src.sh_degree:
         assert meta["shN"]["count"] == palette_size(src.count) and meta["shN"]["bands"] == src.sh_degree
         assert src.count <= palette_size(src.count)  # test64: every splat its own entry
-        bound = _nearest_error(ref.sh_rest, meta["shN"]["codebook"])
-        assert (np.abs(back.sh_rest - ref.sh_rest) <= bound + 1e-6).all()
 
 
 @needs_straight_webp
@@ -148,7 +99,7 @@ def test_codebook_1d_lossless_when_few_values():
 def test_codebooks_match_splat_transform_on_guitar(testdata, tmp_path):
     """Same histogram + DP as splat-transform: the scales and sh0 codebooks of its guitar.sog."""
     src = read(testdata / "guitar.ply")
-    theirs = _sog_meta(testdata / "guitar.sog")
+    theirs = sog_meta(testdata / "guitar.sog")
     for key, values in (("scales", np.log(src.scales)), ("sh0", src.sh_dc)):
         ours = codebook_1d(values)
         assert np.allclose(ours, theirs[key]["codebook"], rtol=1e-5, atol=1e-6), key

@@ -1,20 +1,27 @@
 """python -m addon convert IN [IN ...] OUT [edits]: any readable format(s) to any writable
-one; several inputs merge into one output. Edit flags: cli/edits.py."""
+one; several inputs merge into one output. Edit flags: cli/edits.py.
+
+An input may be a .blend: its splat objects named by --object (cli/blend_objects.py) are
+written as File > Export writes them, so an object Blender 5.3 imported itself converts to
+every format Splatline writes."""
 from __future__ import annotations
 
 import sys
 
 from ..core.errors import SplatFormatError
 from ..core.formats import WRITE_FORMATS, WRITE_MAX_DEGREE, format_for_output, read_with_report, write
+from ..core.select import select
 from ..core.splats import AXES
-from ..core.validate import POLICIES
+from ..core.validate import POLICIES, check_values
 from ..core.edit import merge
-from . import edits
+from . import UserError, edits
+from .capture_scene import is_blend
 
 
 def configure(parser):
     parser.add_argument("input", nargs="+", help="a .ply, compressed .ply, .splat, .spz, .sog (or a SOG "
-                        "meta.json), .glb or .gltf file; several are merged into one output")
+                        "meta.json), .glb or .gltf file, or a .blend whose splat objects --object "
+                        "names; several are merged into one output")
     parser.add_argument("output", help=f"output path; its extension picks the format ({', '.join(WRITE_FORMATS)}; "
                                        "a path named meta.json writes an unbundled SOG beside it)")
     parser.add_argument("--spz-version", type=int, choices=(3, 4), default=4,
@@ -27,7 +34,13 @@ def configure(parser):
                         help="keep at most this many splats, the most important (opacity x volume)")
     parser.add_argument("--axes", choices=AXES, default=None,
                         help="the input's axis convention when the file misdeclares it (e.g. RUB "
-                             "for an spz from Niantic's tools); the output is re-expressed in its own")
+                             "for an spz from Niantic's tools; for a .blend object, the frame its "
+                             "data is in: RFU for one Blender's own SPZ importer made); the output "
+                             "is re-expressed in its own")
+    parser.add_argument("--object", action="append", default=[], metavar="NAME",
+                        help="a splat object of the .blend input to write, its stored data "
+                             "object-local as File > Export writes it (repeatable: several merge; "
+                             "default: the .blend's one splat object)")
     parser.add_argument("--max-splats", type=int, default=None, metavar="N",
                         help="splat budget: refuse a file claiming more than N splats before "
                              "decompressing it (default: what fits in available memory)")
@@ -47,25 +60,52 @@ def _refuse_empty(path, count_in_file: int, count_kept: int) -> None:
 
 
 def _read(args, path):
+    if is_blend(path):
+        return [_checked(*_options(args, s, r)) for s, r in _blend_objects(args, path)]
     splats, report = read_with_report(path, sh_degree=args.sh_degree, min_opacity=args.min_opacity,
                                       max_count=args.max_count, bad=args.bad, axes=args.axes,
                                       max_splats=args.max_splats)
-    _refuse_empty(path, report.count_in_file, splats.count)
+    return [_checked(splats, report)]
+
+
+def _checked(splats, report):
+    _refuse_empty(report.path, report.count_in_file, splats.count)
     if report.bad.total:
-        print(f"warning: {path}: {report.bad.summary()}", file=sys.stderr)
+        print(f"warning: {report.path}: {report.bad.summary()}", file=sys.stderr)
     return splats, report
+
+
+def _blend_objects(args, path):
+    from .blend_objects import read_objects
+
+    return read_objects(path, args.object, args.axes)
+
+
+def _options(args, splats, report):
+    """What read_with_report does after decoding, for splats read from a .blend object."""
+    splats, report.bad = check_values(splats, args.bad, report.path)
+    return select(splats, args.sh_degree, args.min_opacity, args.max_count).check(), report
+
+
+def _check_inputs(args) -> None:
+    blends = [p for p in args.input if is_blend(p)]
+    if len(blends) > 1:
+        raise UserError(f"one .blend input at a time, not {len(blends)} ({', '.join(blends)})")
+    if args.object and not blends:
+        raise UserError("--object names splat objects of a .blend input; none was given")
 
 
 def run(args) -> int:
     fmt = format_for_output(args.output)  # fail on a bad output name or flag before reading
     edits.check(args)
-    loaded = [_read(args, path) for path in args.input]
+    _check_inputs(args)
+    loaded = [item for path in args.input for item in _read(args, path)]
     splats = merge([s for s, _ in loaded]) if len(loaded) > 1 else loaded[0][0]
     total = sum(r.count_in_file for _, r in loaded)
     splats = edits.apply(args, splats)
     _refuse_empty(", ".join(args.input), total, splats.count)
     write(args.output, splats, fmt, **({"version": args.spz_version} if fmt == "spz" else {}))
-    source = ", ".join(f"{p} ({r.format}, {r.count_in_file} splats)" for p, (_, r) in zip(args.input, loaded))
+    source = ", ".join(f"{r.path} ({r.format}, {r.count_in_file} splats)" for _, r in loaded)
     print(f"{source} -> {args.output} "
           f"({fmt}, {splats.count} splats, SH degree {min(splats.sh_degree, WRITE_MAX_DEGREE[fmt])})")
     return 0

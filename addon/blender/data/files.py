@@ -104,26 +104,54 @@ def _make_active(context, obj) -> None:
     view_layer.objects.active = obj
 
 
-def object_axes(obj) -> str:
-    axes = obj.get(AXES_PROP, AXES_RDF)
-    return axes if axes in AXES else AXES_RDF
+def object_axes(obj, axes=None) -> str:
+    """The axis convention the object's data is in: what export re-expresses in each
+    format's own frame (formats.WRITE_AXES: RDF for every writer), so the written file
+    means what the object shows.
+
+    - `axes`, when given (the export operator's Data Axes, `convert --axes`), wins: the
+      caller knows better.
+    - A Splatline import records its file's convention (AXES_PROP) beside the rotation it
+      puts on the transform: that is the frame of its data.
+    - An object without that property is Blender's own: "RDF", the frame of a 3DGS PLY.
+      `wm.ply_import` (5.3, default Forward Y / Up Z, i.e. no turn) stores the file's values
+      with an identity transform, so they are written back unchanged: exporting it to .ply
+      gives the file's splats again (tests/test_native_export.py).
+    - `wm.spz_import` (5.3) turns the data to Blender's frame itself (the file read as RUB,
+      positions to (x, -z, y), rotations and SH bands turned alike: measured equal to
+      core.reframe RUB -> RFU to float32 rounding), so its data is "RFU". Its objects carry
+      no mark that tells them from wm.ply_import's (measured on 5.3.0: the same four
+      attribute kinds, identity transform, no custom properties, no operator record in
+      background mode), so their frame has to be said: axes="RFU" here, or the object's
+      `splatline_axes` property set to "RFU". Written as RFU data, the file shows in a
+      Splatline import what Blender showed (the same world positions).
+    """
+    if axes is not None:
+        if axes not in AXES:
+            raise ValueError(f"axes {axes!r} is not one of {AXES}")
+        return axes
+    stored = obj.get(AXES_PROP, AXES_RDF)
+    return stored if stored in AXES else AXES_RDF
 
 
-def object_splats(obj, evaluated=False, depsgraph=None):
-    """The object's splats in its file frame: stored data, or evaluated (modifiers) data."""
+def object_splats(obj, evaluated=False, depsgraph=None, axes=None):
+    """The object's splats in its data's frame (object_axes): stored data, or evaluated
+    (modifiers) data."""
     data = obj.data
     if evaluated:
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
         data = obj.evaluated_get(depsgraph).data
-    return splats_from_pointcloud(data, object_axes(obj))
+    return splats_from_pointcloud(data, object_axes(obj, axes))
 
 
-def export_object(obj, path, evaluated=False, depsgraph=None) -> None:
+def export_object(obj, path, evaluated=False, depsgraph=None, axes=None) -> None:
     """Write a splat object's data in the format its path names, object-local (the object's transform,
     which carries the axis convention, is not applied). Data stored in another convention
-    than the format's is re-expressed in the format's. Raises SplatFormatError."""
+    than the format's is re-expressed in the format's; `axes` says which convention the data
+    is in where the object cannot (object_axes). Works on any splat object: Splatline's
+    imports and Blender 5.3's own (wm.ply_import, wm.spz_import). Raises SplatFormatError."""
     fmt = formats.format_for_output(path)
-    splats = object_splats(obj, evaluated, depsgraph)
+    splats = object_splats(obj, evaluated, depsgraph, axes)
     if splats.count == 0:
         raise SplatFormatError(path, f"object {obj.name!r} holds no splats to export")
     formats.write(path, reframe(splats, WRITE_AXES[fmt]), fmt)

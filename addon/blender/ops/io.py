@@ -19,6 +19,16 @@ _AXES_ENUM = [
     ("RUB", "Y Up, Z Back", "OpenGL-like frame: pick this for a .spz from Niantic's own tools"),
     ("RFU", "Z Up (Blender)", "No rotation"),
 ]
+# Export: the frame the selected objects' data is in (data/files.object_axes); the file is
+# written in its format's own frame from it.
+_DATA_AXES_ENUM = [
+    ("AUTO", "From Object", "A Splatline import's recorded file frame; an object Blender imported "
+                            "(File > Import > PLY) holds the PLY's own values: Y down, Z forward"),
+    ("RDF", "Y Down, Z Forward", "The data holds a 3DGS / COLMAP file's values (Blender's PLY importer keeps them)"),
+    ("RUB", "Y Up, Z Back", "The data holds an OpenGL-like frame"),
+    ("RFU", "Z Up (Blender)", "The data is in Blender's frame: pick this for an object from "
+                              "Blender's own SPZ importer, which turns the data itself"),
+]
 _BAD_ENUM = [
     ("fix", "Neutralise", "Splats with NaN/Inf values become invisible; zero quaternions become identity; scales <= 0 become |scale|"),
     ("drop", "Drop", "Remove splats with NaN/Inf values, zero quaternions or scales <= 0"),
@@ -130,6 +140,9 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;*.glb;*.gltf", options={"HIDDEN"})
     file_format: EnumProperty(name="Format", default="PLY",
                               items=[item[:3] for item in _EXPORT_FORMATS])
+    data_axes: EnumProperty(name="Data Axes", items=_DATA_AXES_ENUM, default="AUTO",
+                            description="The axis convention the objects' data is in; the file is "
+                                        "written in its format's own")
 
     @property
     def filename_ext(self):
@@ -153,18 +166,19 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
             self.report({"ERROR"}, "select a splat object to export")
             return {"CANCELLED"}
         root, ext = self._root(), self.filename_ext
+        axes = None if self.data_axes == "AUTO" else self.data_axes
         written = []
         for obj in objects:
             path = root + ext if len(objects) == 1 else f"{root}_{bpy.path.clean_name(obj.name)}{ext}"
             try:
-                export_object(obj, path)
+                export_object(obj, path, axes=axes)
             except SplatFormatError as exc:
                 self.report({"ERROR"}, str(exc))
             else:
                 written.append(path)
         if not written:
             return {"CANCELLED"}
-        self.report({"INFO"}, f"wrote {', '.join(written)} ({object_axes(objects[0])} axes)")
+        self.report({"INFO"}, f"wrote {', '.join(written)} (data in {object_axes(objects[0], axes)} axes)")
         return {"FINISHED"}
 
 

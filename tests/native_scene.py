@@ -4,7 +4,9 @@ Facts from blender/blender (2026): io/common/intern/gsplat.cc writes, on the poi
 `radiance:base` float4 (f_dc_0..2, sigmoid(opacity)), `scale` float3 (exp of the log scale),
 `rotation` Quaternion (rot_0..3 as stored: the PLY importer does not normalize), and
 `radiance:sh_k` float3 for k < (degree+1)^2 - 1, up to degree 4 (sh_0..sh_23);
-ply_import_gsplat.cc then sets `render_as = PT_RENDER_AS_SPLATS`. The object gets the file's
+ply_import_gsplat.cc then sets the PointCloud's type to GAUSSIAN_SPLAT (bpy 5.3.0: `type`).
+The stand-in below does not set it: it adds cases on Blenders without native splats; the
+real importers are tested in test_native_blender53.py. The object gets the file's
 name and an identity transform (io/spz/importer/spz_import.cc), and no Splatline settings.
 
 bpy cannot make a PointCloud of N points directly, so the positions go through a vertex-only

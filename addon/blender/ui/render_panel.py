@@ -1,9 +1,20 @@
 """Render properties panel for the Splatline engine, and the built-in panels it opts in to.
 
+Where Blender renders splats itself (5.3+), one line under the Render Engine selector and one
+in Splatline's panel say how the engines differ: Blender's blend splats in linear light,
+Splatline's as the capture was trained (README, "Splatline's engine or Blender's own").
+
 Registered from blender/__init__._MODULES right after render/engine.py (render/ never imports ui/)."""
 import bpy
 
+from ..data import native
+from ..data.pointcloud import is_splat_object
+
 ENGINE = "SPLATLINE"
+# Blender's engines that render native splats (EEVEE is BLENDER_EEVEE_NEXT in 4.2 .. 4.5)
+NATIVE_ENGINES = frozenset({"BLENDER_EEVEE", "BLENDER_EEVEE_NEXT", "CYCLES", "BLENDER_WORKBENCH"})
+SPLATLINE_HINT = "Blends in sRGB as trained; EEVEE/Cycles blend in linear light"
+NATIVE_HINT = "Splats blend in linear light; Splatline engine: trained look"
 
 
 class SPLATLINE_PT_render(bpy.types.Panel):
@@ -22,6 +33,8 @@ class SPLATLINE_PT_render(bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         settings = context.scene.splatline.render
+        if native.has_native_splats():
+            layout.label(text=SPLATLINE_HINT, icon="INFO")
         layout.prop(settings, "renderer")
         _draw_path(layout, settings.renderer)
         col = layout.column(heading="Quality")
@@ -71,6 +84,23 @@ def _draw_path(layout, kind: str) -> None:
     row.label(text=text, icon="ERROR" if "fallback" in text else "INFO")
 
 
+def engine_hint(context) -> str | None:
+    """The line under the Render Engine selector: for Blender's own engines, where this
+    Blender renders splats and the scene holds some; None elsewhere."""
+    if context.engine not in NATIVE_ENGINES or not native.has_native_splats():
+        return None
+    if not any(is_splat_object(obj) for obj in context.scene.objects):
+        return None
+    return NATIVE_HINT
+
+
+def _draw_engine_hint(self, context) -> None:
+    """Appended to RENDER_PT_context, the panel that holds the Render Engine selector."""
+    text = engine_hint(context)
+    if text:
+        self.layout.label(text=text, icon="INFO")
+
+
 classes = (SPLATLINE_PT_render,)
 
 # Blender's own panels show only for the engines in their COMPAT_ENGINES: without these,
@@ -111,6 +141,9 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(clas
 
 def register():
     _register_classes()
+    engine_panel = getattr(bpy.types, "RENDER_PT_context", None)
+    if engine_panel is not None:  # a draw function added the usual way (Panel.append)
+        engine_panel.append(_draw_engine_hint)
     # The one place Splatline edits classes it does not own: Blender's panels read
     # COMPAT_ENGINES at draw time, so adding ENGINE to the set is how a custom engine gets them.
     # Only panels that did not list ENGINE already are recorded, so unregister undoes exactly
@@ -124,4 +157,7 @@ def register():
 def unregister():
     while _patched:
         _patched.pop().COMPAT_ENGINES.discard(ENGINE)
+    engine_panel = getattr(bpy.types, "RENDER_PT_context", None)
+    if engine_panel is not None:
+        engine_panel.remove(_draw_engine_hint)
     _unregister_classes()

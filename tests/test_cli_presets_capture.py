@@ -49,7 +49,9 @@ def test_cli_import_preset_reaches_its_end_state(bpy_empty, testdata, tmp_path, 
     blend = tmp_path / "out.blend"
     _cli_import(testdata, [capture], preset, blend)
     bpy.ops.wm.open_mainfile(filepath=str(blend))
-    (obj,) = [o for o in bpy.data.objects if o.type == "POINTCLOUD"]
+    from addon.blender.data.evaluated_geometry import is_companion
+
+    (obj,) = [o for o in bpy.data.objects if o.type == "POINTCLOUD" and not is_companion(o)]
     name = obj.name_full
     assert np.abs(np.array(obj.matrix_world)[:3, :3] - np.eye(3)).max() > 0.5  # RDF as a rotation
     first, last = _span(bpy, preset)

@@ -8,7 +8,7 @@ import pytest
 from addon.blender.evaluate.items import collect_items
 from addon.blender.data.pointcloud import new_pointcloud
 from addon.core import formats
-from viewport_scene import blob
+from viewport_scene import blob, overlay_drawn
 
 
 @pytest.fixture
@@ -16,12 +16,13 @@ def twins(bpy_empty, tmp_path):
     """A local 'cap' at z=0 and a 'cap' linked from lib.blend at z=5 (different data)."""
     bpy = bpy_empty
     linked_splats = blob(30, 0, seed=1, centre=(0, 0, 5), spread=0.1)
-    obj = bpy.data.objects.new("cap", new_pointcloud("cap", linked_splats))
+    # plain points, so Splatline's overlay draws them on Blender 5.3+ too
+    obj = overlay_drawn(bpy.data.objects.new("cap", new_pointcloud("cap", linked_splats)))
     library = tmp_path / "lib.blend"
     bpy.data.libraries.write(str(library), {obj}, fake_user=True)
     bpy.data.objects.remove(obj)
     local_splats = blob(20, 0, seed=2, centre=(0, 0, 0), spread=0.1)
-    local = bpy.data.objects.new("cap", new_pointcloud("cap", local_splats))
+    local = overlay_drawn(bpy.data.objects.new("cap", new_pointcloud("cap", local_splats)))
     bpy.context.scene.collection.objects.link(local)
     with bpy.data.libraries.load(str(library), link=True) as (src, dst):
         dst.objects = ["cap"]

@@ -56,7 +56,9 @@ def is_splat_object(obj, *, with_splat_data: bool = False) -> bool:
     object's own attributes (export, camera framing, the sequence operators)."""
     if obj is None or obj.type != "POINTCLOUD" or COMPANION_MARK in obj.keys():
         return False
-    if is_splat_data(obj.data):
+    # An evaluated object with a handoff (Blender 5.3+) shows its companion's geometry, which
+    # holds no attributes while it hides every splat: the object's own data decides.
+    if is_splat_data(obj.data) or is_splat_data(obj.original.data):
         return True
     return not with_splat_data and plays_sequence(obj)
 

@@ -24,3 +24,21 @@ def classes_and_menus(classes, menu_entries=()):
         unregister_classes()
 
     return register, unregister
+
+
+def app_handlers(pairs, on_unregister=None):
+    """(register, unregister) for (bpy.app.handlers list, function) pairs: each function is
+    added once, and removed wherever it is; `on_unregister` runs last (a cache's clear)."""
+    def register():
+        for handlers, fn in pairs:
+            if fn not in handlers:
+                handlers.append(fn)
+
+    def unregister():
+        for handlers, fn in pairs:
+            while fn in handlers:
+                handlers.remove(fn)
+        if on_unregister is not None:
+            on_unregister()
+
+    return register, unregister

@@ -23,6 +23,7 @@ from ...core.effects import evaluate_stack
 from ...core.effects.morph import MorphCache
 from ...core.scene import RenderItem
 from . import effect_params
+from ..registration import app_handlers
 from ..data.evaluated_geometry import handoff_modifier, own_data
 from ..data.pointcloud import (BASE, is_splat_object, plays_sequence, splats_from_pointcloud,
                                value_key)
@@ -244,15 +245,4 @@ def _on_load(*_args):
 _HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _on_depsgraph_update),
              (bpy.app.handlers.load_pre, _on_load))
 
-
-def register():
-    for handlers, fn in _HANDLERS:
-        if fn not in handlers:
-            handlers.append(fn)
-
-
-def unregister():
-    for handlers, fn in _HANDLERS:
-        while fn in handlers:
-            handlers.remove(fn)
-    _on_load()
+register, unregister = app_handlers(_HANDLERS, on_unregister=_on_load)

@@ -30,6 +30,7 @@ from ..data import evaluated_geometry as geometry
 from ..data import native
 from ..data.pointcloud import is_splat_object
 from .items import item_for, shown, splat_objects
+from ..registration import app_handlers
 
 SPLATLINE_ENGINE = "SPLATLINE"
 
@@ -154,15 +155,4 @@ _HANDLERS = ((bpy.app.handlers.frame_change_post, _on_frame_change),
              (bpy.app.handlers.undo_post, _on_load),
              (bpy.app.handlers.redo_post, _on_load))
 
-
-def register():
-    for handlers, fn in _HANDLERS:
-        if fn not in handlers:
-            handlers.append(fn)
-
-
-def unregister():
-    for handlers, fn in _HANDLERS:
-        while fn in handlers:
-            handlers.remove(fn)
-    _on_load()
+register, unregister = app_handlers(_HANDLERS, on_unregister=_on_load)

@@ -225,6 +225,21 @@ def test_blenders_spz_import_exports_in_the_frame_it_shows(native_bpy, testdata,
                                sh_to_rgb(shown.sh_dc, shown.sh_rest, dirs, shown.sh_degree), rtol=0, atol=1e-6)  # 6.5e-8
 
 
+@pytest.mark.parametrize("name", ["guitar_v3.spz"])
+def test_evaluated_export_of_a_blender_spz_import_takes_data_axes(native_bpy, testdata, tmp_path, name):
+    """File > Export > Evaluated Splats writes the same file as File > Export for an object
+    without effects, Data Axes included (an SPZ import's data is in Blender's frame)."""
+    bpy = native_bpy
+    _blender_import(bpy, testdata / name)
+    plain = _export(bpy, tmp_path / "plain.ply", "PLY", data_axes="RFU")
+    evaluated = tmp_path / "evaluated.ply"
+    assert bpy.ops.export_scene.splatline_evaluated(filepath=str(evaluated), data_axes="RFU") == {"FINISHED"}
+    assert evaluated.read_bytes() == plain.read_bytes()
+    default = tmp_path / "default.ply"
+    assert bpy.ops.export_scene.splatline_evaluated(filepath=str(default)) == {"FINISHED"}
+    assert default.read_bytes() != evaluated.read_bytes()  # AUTO reads it as a PLY's frame
+
+
 def test_blenders_ply_import_renders_as_splatlines_own(native_bpy, testdata, tmp_path):
     """Splatline's engine draws Blender's import like Splatline's import of the same file,
     given the same world transform (Splatline puts the PLY's frame on the transform)."""

@@ -27,14 +27,14 @@ def evaluated_item(obj, depsgraph):
     raise LookupError(f"object {obj.name!r} is not a visible splat object in the view layer")
 
 
-def export_evaluated(obj, depsgraph, path) -> None:
+def export_evaluated(obj, depsgraph, path, axes=None) -> None:
     """Write obj's evaluated splats at the depsgraph's frame to .ply or .splat, object-local."""
     fmt = formats.format_for_output(path)
     try:
         splats = baked_splats(evaluated_item(obj, depsgraph))
     except LookupError as exc:
         raise SplatFormatError(path, str(exc)) from None
-    splats.axes = object_axes(obj)
+    splats.axes = object_axes(obj, axes)  # axes: the data's frame where the object can't say
     if splats.count == 0:
         raise SplatFormatError(path, f"object {obj.name!r} has no splats at this frame")
     formats.write(path, reframe(splats, WRITE_AXES[fmt]), fmt)

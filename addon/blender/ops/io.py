@@ -21,7 +21,7 @@ _AXES_ENUM = [
 ]
 # Export: the frame the selected objects' data is in (data/files.object_axes); the file is
 # written in its format's own frame from it.
-_DATA_AXES_ENUM = [
+DATA_AXES_ITEMS = [
     ("AUTO", "From Object", "A Splatline import's recorded file frame; an object Blender imported "
                             "(File > Import > PLY) holds the PLY's own values: Y down, Z forward"),
     ("RDF", "Y Down, Z Forward", "The data holds a 3DGS / COLMAP file's values (Blender's PLY importer keeps them)"),
@@ -140,7 +140,7 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;*.glb;*.gltf", options={"HIDDEN"})
     file_format: EnumProperty(name="Format", default="PLY",
                               items=[item[:3] for item in _EXPORT_FORMATS])
-    data_axes: EnumProperty(name="Data Axes", items=_DATA_AXES_ENUM, default="AUTO",
+    data_axes: EnumProperty(name="Data Axes", items=DATA_AXES_ITEMS, default="AUTO",
                             description="The axis convention the objects' data is in; the file is "
                                         "written in its format's own")
 

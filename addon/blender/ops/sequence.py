@@ -17,6 +17,7 @@ from ..data.pointcloud import is_splat_object
 from ..evaluate.bake import bake_frames, export_evaluated
 from ..props.sequence import _LOOP_ITEMS
 from ..registration import classes_and_menus
+from .io import DATA_AXES_ITEMS
 from .reporting import finish_reporting
 
 
@@ -64,6 +65,9 @@ class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
     filename_ext = ".ply"
     check_extension = False  # keep a typed .splat; execute() adds .ply to anything else
     filter_glob: StringProperty(default="*.ply;*.splat", options={"HIDDEN"})
+    data_axes: EnumProperty(name="Data Axes", items=DATA_AXES_ITEMS, default="AUTO",
+                            description="The axis convention the object's data is in; the file is "
+                                        "written in its format's own")
 
     @classmethod
     def poll(cls, context):
@@ -75,7 +79,8 @@ class EXPORT_SCENE_OT_splatline_evaluated(bpy.types.Operator, ExportHelper):
             path += ".ply"
 
         def write():
-            export_evaluated(_splat_object(context), context.evaluated_depsgraph_get(), path)
+            axes = None if self.data_axes == "AUTO" else self.data_axes
+            export_evaluated(_splat_object(context), context.evaluated_depsgraph_get(), path, axes)
             return f"wrote {path}"
         return finish_reporting(self, write, SplatFormatError)
 

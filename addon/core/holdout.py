@@ -159,9 +159,9 @@ def _planar_rects(tri, camera, window):
             u = camera.cx + camera.fx * p[..., 0] / -p[..., 2]
             v = camera.cy - camera.fy * p[..., 1] / -p[..., 2]
         live &= inside.any(1)
-    with np.errstate(all="ignore"):
-        x0, x1 = _pixel_range(np.nanmin(u, 1), np.nanmax(u, 1), wx, w)
-        y0, y1 = _pixel_range(np.nanmin(v, 1), np.nanmax(v, 1), wy, h)
+    with np.errstate(all="ignore"):  # nan: a corner clipped away
+        x0, x1 = _pixel_range(np.fmin.reduce(u, 1), np.fmax.reduce(u, 1), wx, w)
+        y0, y1 = _pixel_range(np.fmin.reduce(v, 1), np.fmax.reduce(v, 1), wy, h)
     live &= (x0 <= x1) & (y0 <= y1)
     idx = np.nonzero(live)[0]
     return idx, x0[idx], x1[idx], y0[idx], y1[idx]

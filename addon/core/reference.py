@@ -27,6 +27,10 @@ other renderer (semantics in ../../../shared/DESIGN.md, projection in project.py
 - Depth (the Z pass): the alpha-weighted view depth of the splats blended into the
   pixel, sum(T_i alpha_i z_i) / (1 - T), z_i the view depth of splat i's centre; inf
   where the splats' alpha 1 - T stays below DEPTH_FROM_ALPHA (0.5).
+- Holdout (options.holdout, holdout.py): a splat's fragment at a pixel is composited
+  only where its centre depth is below the pixel's holdout depth (the nearest opaque
+  surface); a dropped fragment changes neither colour, transmittance nor the Z pass, so
+  the Z pass is that of the kept fragments, and early termination counts only them.
 - Work is per splat over the pixels of its bounding box, tile by tile, so a
   few small splats on an 8192 x 8192 frame cost little beyond the output.
 """
@@ -36,6 +40,7 @@ import numpy as np
 
 from . import equirect
 from .camera import Camera
+from .holdout import holdout_depth, kept
 from .project import ALPHA_MIN, project
 from .scene import RenderItem, RenderOptions, RenderOutput
 
@@ -59,11 +64,14 @@ def render(items: list[RenderItem], camera: Camera, options: RenderOptions = Ren
     rgba = np.empty((h, w, 4), np.float32)
     depth = np.empty((h, w), np.float32)
     bg = np.asarray(options.background, np.float64)
+    held = (None if options.holdout is None  # nearest surface per pixel, float64
+            else holdout_depth(options.holdout, camera, (wx, wy, w, h)))
     for y0 in range(wy, wy + h, TILE):
         for x0 in range(wx, wx + w, TILE):
             y1, x1 = min(y0 + TILE, wy + h), min(x0 + TILE, wx + w)
-            c, t, d = _render_tile(splats, x0, y0, x1, y1, options.early_termination)
             out = (slice(y0 - wy, y1 - wy), slice(x0 - wx, x1 - wx))
+            c, t, d = _render_tile(splats, x0, y0, x1, y1, options.early_termination,
+                                   None if held is None else held[out])
             rgba[out + (slice(0, 3),)] = c + t[..., None] * bg[:3]
             rgba[out + (3,)] = (1.0 - t) + t * bg[3]
             depth[out] = d
@@ -110,8 +118,10 @@ def _with_seam_copies(s: dict, camera) -> dict:
     return {f: np.concatenate(v) for f, v in parts.items()}
 
 
-def _render_tile(s: dict, x0: int, y0: int, x1: int, y1: int, early_termination: bool):
-    """Composite the splats overlapping [x0, x1) x [y0, y1): colour, transmittance, depth."""
+def _render_tile(s: dict, x0: int, y0: int, x1: int, y1: int, early_termination: bool,
+                 held=None):
+    """Composite the splats overlapping [x0, x1) x [y0, y1): colour, transmittance, depth.
+    held: the tile's holdout depth, or None."""
     h, w = y1 - y0, x1 - x0
     col = np.zeros((h, w, 3))
     trans = np.ones((h, w))
@@ -129,6 +139,8 @@ def _render_tile(s: dict, x0: int, y0: int, x1: int, y1: int, early_termination:
         alpha = np.minimum(MAX_ALPHA, s["opacity"][i] * np.exp(-0.5 * m2))
         sl = (slice(by0 - y0, by1 - y0), slice(bx0 - x0, bx1 - x0))
         mask = (alpha >= ALPHA_MIN) & ~done[sl]
+        if held is not None:
+            mask &= kept(s["depth"][i], held[sl])
         t = trans[sl]
         if early_termination:
             stop = mask & (t * (1.0 - alpha) < T_STOP)

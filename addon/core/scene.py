@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .holdout import Holdout
 from .splats import SplatSet
 
 IDENTITY_COLOR = np.hstack([np.eye(3), np.zeros((3, 1))])
@@ -53,6 +54,10 @@ class RenderOptions:
     # None: compute shaders unless the GL is a software rasteriser (gl/sorting.sorts_on_gpu)
     gpu_sort: bool | None = None
     background: tuple = (0.0, 0.0, 0.0, 0.0)  # premultiplied sRGB RGBA behind the splats
+    # Opaque meshes that hide splats, per fragment (holdout.py): a splat's contribution to
+    # a pixel is drawn only where its centre depth is below the nearest surface's there.
+    # Compared and hashed by its key (a hash of the triangles).
+    holdout: Holdout | None = None
 
 
 @dataclass

@@ -20,6 +20,19 @@ more than their rejections saved (1.03-1.04x wall, A/B in one process, 8 frames 
 The Z pass is one more RGBA32F attachment blended the same way: its red channel sums
 T_i alpha_i z_i (green and blue are masked off). Divided by the accumulated alpha it is
 the alpha-weighted depth RenderOutput defines; same draws, no extra pass.
+
+Holdout (issue 25, gl/holdout.py): with a tile's surface depth map, the draw and the
+early-termination passes are variants compiled with SL_HOLDOUT (frames without a holdout
+run the programs above, unchanged). The fragment stage zeroes every fragment whose centre
+depth is not in front of the surface there; it adds no alpha, so it never counts toward
+saturation. The batches are then also the holdout's culling: the smallest centre depth
+of each batch is gathered first (gl_holdout_minima.comp; on GL 3.3 from the CPU's
+records), and before each batch, the first one included, a pixel is closed where it is
+saturated or its surface lies at or in front of every splat still to be drawn, exactly
+the pixels where all their fragments would be dropped. Splats behind a mesh are so culled
+in the vertex stage, and the pixels under it, which never saturate, cost no more than
+without the mesh. With early termination off the batches run as well, closing pixels
+only by the surface (exact).
 """
 from __future__ import annotations
 
@@ -39,6 +52,9 @@ SAT_LEVELS = 12  # saturation-map levels at most: cells of 4 .. 8192 pixels
 B_SATURATION = 8  # storage binding of the saturation map
 B_CELLS = 9  # and of its level 0 as one uint a cell, before packing
 CELLS, PACK, REDUCE = 0, 1, 2  # gl_saturation_map.comp's passes
+HOLDOUT_UNIT = 7  # texture unit of the tile's holdout depth map
+B_MINIMA = 13  # storage binding of the batches' least centre depths (holdout)
+MINIMA_SPAN = 64 * 64  # ranks per work group of gl_holdout_minima.comp (64 lanes x SPAN 64)
 DRAW_CHUNK = 16384  # splats per draw call where the compositor flushes (software GL)
 FIRST_CHUNK = 1024  # a batch's first draw there; each next one doubles up to DRAW_CHUNK
 
@@ -100,6 +116,11 @@ class Compositor:
             vertex_shader=shaders.source("gl_fullscreen.vert", math=False, records=records),
             fragment_shader=shaders.source("gl_saturate.frag", math=False, records=records))
         self.vaos = {p: ctx.vertex_array(p, []) for p in (self.draw, self.mark) if p}
+        self.records = records
+        self.variants = {False: (self.draw, self.mark)}  # holdout variant compiled on first use
+        self.sat_cells = {False: self.sat_map[CELLS]} if self.sat_map else {}
+        self.minima = None  # (program, buffer) on the compute path, once a holdout comes
+        self.held = None  # this tile's holdout: texture, per-batch z_next (CPU) or None
         self.targets: dict = {}
         self.splat_draws = 0  # batches of splats drawn in the last tile (stats and tests)
         self.breaks = 0  # early-termination passes between them (map or marks)
@@ -132,11 +153,42 @@ class Compositor:
             self.targets[(w, h)] = t
         return self.targets[(w, h)]
 
-    def run(self, tile, visible: int, early_termination: bool, want_z: bool, capped: bool = False):
+    def programs_for(self, holdout: bool):
+        """(draw, mark) programs with or without the holdout test (compiled once)."""
+        if holdout not in self.variants:
+            ctx, records = self.ctx, self.records
+            defines = {"SL_HOLDOUT": 1}
+            if self.sat_map:
+                defines["SL_SATURATION_MAP"] = SAT_LEVELS
+                self.sat_cells[True] = ctx.compute_shader(shaders.source(
+                    "gl_saturation_map.comp", math=False, defines={"SL_PASS": CELLS, "SL_HOLDOUT": 1}))
+                self.minima = (ctx.compute_shader(shaders.source("gl_holdout_minima.comp", math=False)),
+                               ctx.buffer(reserve=4 * (MAX_BREAKS + 1)))
+            draw = ctx.program(
+                vertex_shader=shaders.source("gl_splat.vert", records=records, defines=defines),
+                fragment_shader=shaders.source("gl_splat.frag", records=records, defines=defines))
+            mark = None if self.sat_map else ctx.program(
+                vertex_shader=shaders.source("gl_fullscreen.vert", math=False, records=records),
+                fragment_shader=shaders.source("gl_saturate.frag", math=False, records=records,
+                                               defines={"SL_HOLDOUT": 1}))
+            for p in (draw, mark):
+                if p is not None:
+                    self.vaos[p] = ctx.vertex_array(p, [])
+            self.variants[holdout] = (draw, mark)
+        return self.variants[holdout]
+
+    def run(self, tile, visible: int, early_termination: bool, want_z: bool, capped: bool = False,
+            holdout=None, front_depths=None):
         """Composite one tile (the order and records are bound). Returns (rgba, depth):
         (h, w, 4) premultiplied splats only (no background) and (h, w) alpha-weighted
-        depth (inf below alpha 0.5, or everywhere without want_z), both top-down."""
+        depth (inf below alpha 0.5, or everywhere without want_z), both top-down.
+        holdout: the tile's surface depth map (gl/holdout.py), or None; front_depths: on
+        the GL 3.3 path with a holdout, the records' centre depths back to front."""
         x0, y0, w, h = tile
+        self.draw, self.mark = self.programs_for(holdout is not None)
+        plan = batches(visible, early_termination or holdout is not None)
+        self.held = None if holdout is None else self._hold(holdout, plan, visible, front_depths,
+                                                            early_termination)
         t = self._targets(w, h)
         if "mark" in t:
             t["mark"].clear(depth=1.0)  # the splat framebuffers don't write depth, not even clears
@@ -151,24 +203,50 @@ class Compositor:
         if "u_visible" in draw:
             draw["u_visible"].value = visible
         self._use_map(t, 0)
+        if holdout is not None:
+            holdout.use(HOLDOUT_UNIT)
+            draw["u_holdout"].value = HOLDOUT_UNIT
         tests = moderngl.BLEND | (moderngl.DEPTH_TEST if "mark" in t else 0)
         ctx.enable(tests)
         ctx.depth_func = "<"
         ctx.blend_func = moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE
-        for number, (first, count) in enumerate(batches(visible, early_termination)):
-            if number:
-                self._break(t, w, h)
+        for number, (first, count) in enumerate(plan):
+            if number or holdout is not None:  # with a holdout, before the first batch too
+                self._break(t, w, h, number)
                 fbo.use()
             self._draw(first, count)
         ctx.disable(tests)
         return self._read(fbo, w, h, want_z)
 
-    def _break(self, t: dict, w: int, h: int):
-        """Between batches: find the pixels saturated so far for the next batches' culling."""
+    def _hold(self, holdout, plan, visible: int, front_depths, early_termination: bool) -> dict:
+        """The tile's holdout state for the breaks: its map, the batch count, whether
+        pixels saturate, and each batch's least centre depth still to come (GL 3.3: on
+        the CPU; compute path: gathered into the minima buffer here)."""
+        held = {"texture": holdout, "batches": len(plan), "saturate": bool(early_termination)}
+        if self.sat_map is None:
+            front = np.asarray(front_depths, np.float32)[:visible][::-1]
+            least = [front[first:first + count].min() for first, count in plan]
+            held["z_next"] = [float(v) for v in np.minimum.accumulate(least[::-1])[::-1]]
+            return held
+        cs, buf = self.minima
+        buf.write(np.full(MAX_BREAKS + 1, 0xFFFFFFFF, np.uint32).tobytes())
+        buf.bind_to_storage_buffer(B_MINIMA)
+        cs["u_visible"].value = visible
+        for slot, (first, count) in enumerate(plan):
+            cs["u_first"].value = first
+            cs["u_count"].value = count
+            cs["u_slot"].value = slot
+            cs.run(-(-count // MINIMA_SPAN))
+        self.ctx.memory_barrier()
+        return held
+
+    def _break(self, t: dict, w: int, h: int, batch: int = 0):
+        """Before batch `batch` (> 0, or any with a holdout): find the pixels closed so far
+        (saturated, or held out for every splat to come) for the next batches' culling."""
         if self.sat_map is not None:
-            self._build_map(t, w, h)
+            self._build_map(t, w, h, batch)
         else:
-            self._mark(t, w, h)
+            self._mark(t, w, h, batch)
         self.breaks += 1
 
     def _draw(self, first: int, count: int):
@@ -215,8 +293,9 @@ class Compositor:
             depth = np.where(alpha >= DEPTH_FROM_ALPHA, weighted / alpha, np.inf)
         return rgba, depth.astype(np.float32)
 
-    def _mark(self, t: dict, w: int, h: int):
-        """Depth-mark the saturated pixels (T < 1e-4) of the tile so far."""
+    def _mark(self, t: dict, w: int, h: int, batch: int = 0):
+        """Depth-mark the saturated pixels (T < 1e-4) of the tile so far (with a holdout,
+        and those whose surface hides every splat from batch `batch` on)."""
         mark = t["mark"]
         mark.use()
         mark.viewport = (0, 0, w, h)
@@ -224,16 +303,28 @@ class Compositor:
         ctx.disable(moderngl.BLEND)
         t["colour"].use(MARK_UNIT)
         self.mark["u_colour"].value = MARK_UNIT
+        if self.held is not None:
+            self.held["texture"].use(HOLDOUT_UNIT)
+            set_uniform(self.mark, "u_holdout", HOLDOUT_UNIT)
+            set_uniform(self.mark, "u_z_next", self.held["z_next"][batch])
+            set_uniform(self.mark, "u_saturate", self.held["saturate"])
         self.vaos[self.mark].render(moderngl.TRIANGLES, vertices=3)
         ctx.enable(moderngl.BLEND)
 
-    def _build_map(self, t: dict, w: int, h: int):
-        """The saturation map of the tile so far, for the draw stage's culling."""
+    def _build_map(self, t: dict, w: int, h: int, batch: int = 0):
+        """The saturation map of the tile so far, for the draw stage's culling (with a
+        holdout, closing too the cells whose surface hides every splat from `batch` on)."""
         t["colour"].use(MARK_UNIT)
         t["flags"].bind_to_storage_buffer(B_SATURATION)
         t["cells"].bind_to_storage_buffer(B_CELLS)
         cols, rows = -(-w // 4), t["levels"][0][2]
-        self._map_pass(CELLS, (cols, rows), u_colour=MARK_UNIT, u_tile_size=(w, h))
+        held = {}
+        if self.held is not None:
+            self.held["texture"].use(HOLDOUT_UNIT)
+            self.minima[1].bind_to_storage_buffer(B_MINIMA)
+            held = {"u_holdout": HOLDOUT_UNIT, "u_batch": batch, "u_batches": self.held["batches"],
+                    "u_saturate": self.held["saturate"]}
+        self._map_pass(CELLS, (cols, rows), u_colour=MARK_UNIT, u_tile_size=(w, h), **held)
         below = (0, 1, 1)
         for k, (offset, words, rows) in enumerate(t["levels"]):
             self._map_pass(REDUCE if k else PACK, (words, rows), u_offset=offset, u_cells=cols,
@@ -242,7 +333,7 @@ class Compositor:
         self._use_map(t, len(t["levels"]))
 
     def _map_pass(self, kind: int, size: tuple[int, int], **uniforms):
-        cs = self.sat_map[kind]
+        cs = self.sat_cells[self.held is not None] if kind == CELLS else self.sat_map[kind]
         cs["u_size"].value = size
         for name, value in uniforms.items():
             set_uniform(cs, name, value)  # each pass keeps only the uniforms it reads
@@ -266,6 +357,8 @@ class Compositor:
             for name, obj in t.items():
                 if name != "levels":
                     obj.release()
-        for obj in list(self.vaos.values()) + [self.draw, self.mark] + (self.sat_map or []):
+        programs = [p for pair in self.variants.values() for p in pair]
+        extra = list(self.sat_cells.values())[1:] + list(self.minima or [])
+        for obj in list(self.vaos.values()) + programs + (self.sat_map or []) + extra:
             if obj is not None:
                 obj.release()

@@ -11,6 +11,7 @@ from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
 from .composite import Compositor
 from .fallback import RecordTextures, cpu_records
+from .holdout import HoldoutPass, active
 from .software import gl_flush, is_software
 from .sorting import RadixSorter, cpu_order, sorts_on_gpu
 from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform, slots_per_splat
@@ -37,6 +38,7 @@ class FrameState:
         self.gl_renderer = ctx.info.get("GL_RENDERER", "")
         self.record_textures = None if self.compute else RecordTextures(ctx)
         self.compositor = Compositor(ctx, records, gl_flush(ctx) if is_software(self.gl_renderer) else None)
+        self.holdout = HoldoutPass(ctx, stats, 430 if self.compute else 330)
         self.preprocess = {}  # compute programs by preprocess_defines
         self.range = ctx.buffer(reserve=12) if self.compute else None
         self.dummy = ctx.buffer(reserve=16) if self.compute else None
@@ -156,37 +158,46 @@ class FrameState:
     def render(self, items: list[RenderItem], camera: Camera, options: RenderOptions) -> RenderOutput:
         if options.key_bits not in (16, 32):
             raise ValueError(f"key bits must be 16 or 32, not {options.key_bits}")
+        holdout = active(options)
+        front_depths = None
         if self.compute:
             order, visible, n = self._gpu_prepare(items, camera, options)
         else:
             records, visible = cpu_records(items, camera, options)
             self.record_textures.upload(records, self.stats)
-            self.record_textures.bind(self.compositor.draw)
+            self.record_textures.bind(self.compositor.programs_for(holdout is not None)[0])
             self.stats["cpu_sorts"] += 1
             order, n = None, sum(item.splats.count for item in items)
-        rgba, depth = self._composite(camera, visible, options)
+            front_depths = records[1, :, 2]  # back to front: the draw stage's centre depths
+        rgba, depth = self._composite(camera, visible, options, holdout, front_depths)
         behind(rgba, options.background)
         self.stats["frames"] += 1
         self.stats["resident_objects"] = self.cache.resident
         self.last = (order, visible, n)
         return RenderOutput(rgba, depth)
 
-    def _composite(self, camera: Camera, visible: int, options: RenderOptions):
-        """The frame's (rgba, depth), tile by tile; a frame of one tile is its arrays."""
+    def _composite(self, camera: Camera, visible: int, options: RenderOptions, holdout=None,
+                   front_depths=None):
+        """The frame's (rgba, depth), tile by tile; a frame of one tile is its arrays.
+        holdout: the frame's Holdout with triangles (gl/holdout.py), or None."""
         frame_tiles = list(tiles(camera.width, camera.height))
+        args = (visible, options, camera, holdout, front_depths)
         if len(frame_tiles) == 1:
-            return self._run_tile(frame_tiles[0], visible, options)
+            return self._run_tile(frame_tiles[0], *args)
         rgba = np.empty((camera.height, camera.width, 4), np.float32)
         depth = np.empty((camera.height, camera.width), np.float32)
         for tile in frame_tiles:
             x0, y0, w, h = tile
             out = (slice(y0, y0 + h), slice(x0, x0 + w))
-            rgba[out], depth[out] = self._run_tile(tile, visible, options)
+            rgba[out], depth[out] = self._run_tile(tile, *args)
         return rgba, depth
 
-    def _run_tile(self, tile, visible: int, options: RenderOptions):
+    def _run_tile(self, tile, visible: int, options: RenderOptions, camera: Camera = None,
+                  holdout=None, front_depths=None):
+        # the surface depth map first (its own target), when there are splats to hide
+        held = self.holdout.render(holdout, camera, tile) if holdout is not None and visible else None
         out = self.compositor.run(tile, visible, options.early_termination, self.want_depth,
-                                  options.capped_extent)
+                                  options.capped_extent, held, front_depths)
         self.stats["splat_draws"] += self.compositor.splat_draws
         self.stats["saturation_passes"] += self.compositor.breaks
         self.stats["draw_flushes"] += self.compositor.flushes
@@ -211,7 +222,7 @@ class FrameState:
 
     def release(self):
         self.cache.release()
-        for owner in (self.sorter, self.record_textures, self.compositor):
+        for owner in (self.sorter, self.record_textures, self.compositor, self.holdout):
             if owner is not None:
                 owner.release()
         for buf in list(self.arrays.values()) + [self.range, self.dummy]:

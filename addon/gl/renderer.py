@@ -48,9 +48,13 @@ class OffscreenRenderer:
     stats counts work across frames: frames, geometry_uploads (objects whose splats
     were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts, splat_draws (batches of
     splats drawn), saturation_passes (early-termination passes between them: saturation
-    map builds, or on GL 3.3 depth marks), draw_flushes (glFlush calls
-    between a batch's chunks, software GL only); resident_objects is how many objects hold
-    GPU buffers after the last frame.
+    map builds, or on GL 3.3 depth marks; with a holdout one more before the first
+    batch), draw_flushes (glFlush calls between a batch's chunks, software GL only),
+    holdout_uploads (holdouts whose triangles were sent: once per Holdout.key);
+    resident_objects is how many objects hold GPU buffers after the last frame.
+
+    options.holdout (a core.holdout.Holdout) hides the splats behind its triangles, per
+    fragment, as the reference does (gl/holdout.py).
     """
 
     def __init__(self, context_factory=_create_context, depth_pass: bool = True,
@@ -63,7 +67,7 @@ class OffscreenRenderer:
         self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
                       "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0,
                       "splat_draws": 0, "saturation_passes": 0, "draw_flushes": 0,
-                      "resident_objects": 0}
+                      "holdout_uploads": 0, "resident_objects": 0}
         self._worker = GLWorker(context_factory)
         from .frame import FrameState
 
@@ -99,6 +103,12 @@ class OffscreenRenderer:
                         "(%s); rendering such frames on the GL 3.3 path (CPU sort, slower)",
                         f"{count:,}", f"{self._state.record_limit:,}")
         return self._large
+
+    def holdout_depth(self, holdout, camera: Camera):
+        """The (H, W) float32 surface depth map the draw stage tests the splats against
+        (+inf where no surface), for tests: core.holdout.holdout_depth in float32. Drawn
+        as one tile (frames up to 4096 on a side)."""
+        return self._worker.call(self._state.holdout.read, holdout, camera)
 
     def last_order(self):
         """Back-to-front global splat indices of the last frame (for tests and tools)."""

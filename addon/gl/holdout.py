@@ -1,0 +1,155 @@
+"""Stage "holdout" (issue 25): meshes hide splats, per fragment, as core/holdout.py says.
+
+Before a tile's splats are composited, the holdout's triangles are drawn into an R32F
+target the size of the tile: the depth of the nearest surface under each pixel centre,
++inf where none, in the splats' own measure (view depth -z; for an equirect camera the
+distance). Each triangle is one instanced quad over its screen box (gl_holdout.vert), and
+the fragment stage casts the pixel-centre ray against it exactly (gl_holdout.frag,
+Moeller-Trumbore in float32, camera-relative) and keeps the nearest hit through MIN
+blending: no depth buffer and no non-linear z, the same rays for all three cameras, so
+the map equals core.holdout.holdout_depth up to float32 rounding (tests/test_gl_holdout.py).
+With depth of field it is the pinhole's map, as the reference's.
+
+The draw stage then drops every splat fragment whose centre depth is not in front of
+the map there (gl_splat.frag, SL_HOLDOUT), and early termination closes the cells where
+the surface lies in front of every splat still to come (gl/composite.py).
+
+Triangles are uploaded once per Holdout.key, relative to their mean (float64 on the
+CPU), so a mesh far from the origin keeps its float32 precision near the camera; the
+camera's transform is a uniform. The few most recent holdouts stay resident (an animated
+mesh gives a new key each frame, a motion-blurred one each sub-frame).
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import moderngl
+import numpy as np
+
+from ..core.camera import Camera
+from . import shaders
+from .uniforms import set_uniform
+
+KEEP = 4  # holdouts whose triangles stay on the GPU (most recently used)
+
+
+def active(options):
+    """The frame's Holdout where it has triangles, else None (no holdout work at all)."""
+    holdout = getattr(options, "holdout", None)
+    return holdout if holdout is not None and holdout.count > 0 else None
+
+
+def camera_kind(camera: Camera) -> int:
+    """SL_CAMERA: 0 perspective, 1 orthographic, 2 equirect (as the preprocess's)."""
+    return 2 if camera.equirect else 1 if camera.ortho else 0
+
+
+class _Upload:
+    def __init__(self, ctx, holdout):
+        tri = np.asarray(holdout.triangles, np.float64)
+        self.origin = tri.reshape(-1, 3).mean(0)
+        local = (tri - self.origin).astype(np.float32)
+        self.buffer = ctx.buffer(np.ascontiguousarray(local).tobytes())
+        self.count = holdout.count
+        self.nbytes = local.nbytes
+        self.vaos = {}
+
+    def vao(self, ctx, program):
+        if program not in self.vaos:
+            self.vaos[program] = ctx.vertex_array(
+                program, [(self.buffer, "3f 3f 3f/i", "a_v0", "a_v1", "a_v2")])
+        return self.vaos[program]
+
+    def release(self):
+        for vao in self.vaos.values():
+            vao.release()
+        self.buffer.release()
+
+
+class HoldoutPass:
+    """Owns the holdout programs, the uploaded triangles and the tile targets (GL thread)."""
+
+    def __init__(self, ctx, stats: dict, version: int = 330):
+        self.ctx = ctx
+        self.stats = stats
+        self.version = version
+        self.programs: dict = {}
+        self.uploads: OrderedDict = OrderedDict()
+        self.targets: dict = {}
+
+    def _program(self, kind: int):
+        if kind not in self.programs:
+            records = "ssbo" if self.version >= 430 else "texture"
+            defines = {"SL_CAMERA": kind}
+            self.programs[kind] = self.ctx.program(
+                vertex_shader=shaders.source("gl_holdout.vert", math=False, defines=defines,
+                                             records=records),
+                fragment_shader=shaders.source("gl_holdout.frag", math=False, defines=defines,
+                                               records=records))
+        return self.programs[kind]
+
+    def _upload(self, holdout) -> _Upload:
+        up = self.uploads.get(holdout.key)
+        if up is None:
+            up = _Upload(self.ctx, holdout)
+            self.uploads[holdout.key] = up
+            self.stats["holdout_uploads"] = self.stats.get("holdout_uploads", 0) + 1
+            self.stats["bytes_uploaded"] += up.nbytes
+            while len(self.uploads) > KEEP:
+                self.uploads.popitem(last=False)[1].release()
+        else:
+            self.uploads.move_to_end(holdout.key)
+        return up
+
+    def _target(self, w: int, h: int):
+        if (w, h) not in self.targets:
+            tex = self.ctx.texture((w, h), 1, dtype="f4")
+            tex.filter = moderngl.NEAREST, moderngl.NEAREST
+            self.targets[(w, h)] = (tex, self.ctx.framebuffer([tex]))
+        return self.targets[(w, h)]
+
+    def render(self, holdout, camera: Camera, tile):
+        """Draw the holdout's depth map of one (x0, y0, w, h) tile; returns its texture."""
+        x0, y0, w, h = tile
+        tex, fbo = self._target(w, h)
+        up = self._upload(holdout)
+        prog = self._program(camera_kind(camera))
+        m = np.asarray(camera.world_to_camera, np.float64)
+        set_uniform(prog, "u_rot", m[:3, :3])
+        set_uniform(prog, "u_offset", tuple(float(v) for v in m[:3, :3] @ up.origin + m[:3, 3]))
+        set_uniform(prog, "u_focal_centre", (camera.fx, camera.fy, camera.cx, camera.cy))
+        set_uniform(prog, "u_near_far", (float(camera.near), float(camera.far)))
+        set_uniform(prog, "u_tile", (float(x0), float(y0), float(w), float(h)))
+        fbo.use()
+        fbo.viewport = (0, 0, w, h)
+        fbo.clear(np.inf, np.inf, np.inf, np.inf)
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = moderngl.MIN
+        vao = up.vao(ctx, prog)
+        period = 2.0 * np.pi * camera.fx
+        for shift in ((0.0, period, -period) if camera.equirect else (0.0,)):
+            set_uniform(prog, "u_shift", float(shift))
+            vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=up.count)
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.disable(moderngl.BLEND)
+        return tex
+
+    def read(self, holdout, camera: Camera) -> np.ndarray:
+        """(H, W) float32 depth map of the whole frame (one tile), for tests."""
+        tex = self.render(holdout, camera, (0, 0, camera.width, camera.height))
+        out = np.empty((camera.height, camera.width), np.float32)
+        tex.read_into(out)
+        return out
+
+    def release(self):
+        for up in self.uploads.values():
+            up.release()
+        self.uploads.clear()
+        for tex, fbo in self.targets.values():
+            fbo.release()
+            tex.release()
+        self.targets.clear()
+        for prog in self.programs.values():
+            prog.release()
+        self.programs.clear()

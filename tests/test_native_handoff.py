@@ -229,3 +229,34 @@ def test_blender_renders_a_sequence_and_a_hidden_morph_target(native_bpy, tmp_pa
     bpy.context.view_layer.update()
     shown = target.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
     assert geometry.companion(target) is not None and len(shown.points) == 0
+
+
+def test_a_duplicate_gets_its_own_companion(native_bpy, testdata):
+    """Shift+D copies the modifier, which still shows the original's companion: each object
+    must end up showing its own evaluated splats."""
+    from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.data.pointcloud import splats_from_pointcloud
+    from addon.blender.evaluate.items import collect_items
+    from addon.core.bake import baked_splats
+
+    bpy = native_bpy
+    bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply"))
+    obj = bpy.context.view_layer.objects.active
+    _effect(bpy, obj, "EXPLODE", start_frame=1.0)
+    bpy.context.scene.frame_set(3)
+    with bpy.context.temp_override(active_object=obj, selected_objects=[obj],
+                                   selected_editable_objects=[obj]):
+        assert bpy.ops.object.duplicate() == {"FINISHED"}
+    dup = next(o for o in bpy.context.scene.objects if o.type == "POINTCLOUD" and o is not obj)
+    dup.splatline.effects[0].strength = 3.0  # its own splats now differ from the original's
+    bpy.context.scene.frame_set(4)
+    assert geometry.companion(dup) is not geometry.companion(obj)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    items = {i.key[0]: baked_splats(i) for i in collect_items(depsgraph)}
+    for o in (obj, dup):
+        got = splats_from_pointcloud(o.evaluated_get(depsgraph).data)
+        np.testing.assert_array_equal(got.positions, items[o.name_full].positions, err_msg=o.name)
+    assert not np.array_equal(items[obj.name_full].positions, items[dup.name_full].positions)
+    obj.name = "renamed"
+    bpy.context.scene.frame_set(5)
+    assert geometry.companion(obj).get("splatline_evaluated_of") == "renamed"

@@ -51,6 +51,24 @@ def companion(obj):
     return None
 
 
+def claim(obj):
+    """obj's own companion, or None where it has none of its own. A duplicated object
+    (Shift+D) carries a copy of the modifier that still shows the original's companion: its
+    modifier goes, and install() gives it its own. A renamed object keeps its companion."""
+    other = companion(obj)
+    if other is None:
+        return None
+    owner = other.get(COMPANION_MARK)
+    if owner == obj.name:
+        return other
+    first = bpy.data.objects.get(owner) if isinstance(owner, str) else None
+    if first is not None and first is not obj and companion(first) is other:
+        obj.modifiers.remove(handoff_modifier(obj))
+        return None
+    other[COMPANION_MARK] = obj.name
+    return other
+
+
 def is_companion(obj) -> bool:
     return obj is not None and COMPANION_MARK in obj.keys()
 
@@ -66,7 +84,7 @@ def own_data(obj_eval, depsgraph):
 def install(obj):
     """Give obj a companion and the modifier that shows it; returns the companion.
     Atomic: on failure nothing new is left behind."""
-    found = companion(obj)
+    found = claim(obj)
     if found is not None:
         return found
     made = []

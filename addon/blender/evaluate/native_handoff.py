@@ -78,7 +78,7 @@ class Handoff:
         if not native.drawn_natively(original.data):
             return False
         item = item_for(obj_eval, depsgraph) if shown(obj_eval) else None
-        other = geometry.companion(original)
+        other = geometry.claim(original)
         if other is None:
             if item is not None and not changes_splats(item):
                 return False

@@ -147,3 +147,41 @@ def test_install_enable_import_render(python, extension_zips, testdata, tmp_path
     assert pixels.shape == (64, 96, 4)
     alpha = pixels[..., 3]
     assert 0.01 < (alpha > 0.5).mean() < 0.99, "the capture should cover part of the frame"
+
+
+INSTALL_AND_EXIT = r"""
+import sys
+import bpy
+zip_path, capture = sys.argv[-2:]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+result = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default",
+                                                  enable_on_install=True)
+assert result == {"FINISHED"}, result
+name = "bl_ext.user_default.splatline"
+assert name in bpy.context.preferences.addons.keys()
+bpy.ops.import_scene.splatline_gaussians(filepath=capture)
+# Off and on again through Blender, as a user would in Preferences: each way is clean too.
+bpy.ops.preferences.addon_disable(module=name)
+assert not hasattr(bpy.types, "SPLATLINE_MT_object")
+bpy.ops.preferences.addon_enable(module=name)
+assert hasattr(bpy.types, "SPLATLINE_MT_object")
+print("ENABLED", name)
+"""
+
+
+def test_exit_after_installing_the_zip_is_clean(extension_zips, testdata, tmp_path):
+    # Installed and enabled through Blender's extension API, the add-on is torn down at exit
+    # both by its own atexit hook and by Blender's (addon_utils.disable_all): the second pass
+    # used to print `Exception in module unregister()` and a RuntimeError on
+    # SPLATLINE_MT_object at every exit (bpy 4.5, 5.0, 5.2, 5.3).
+    script = tmp_path / "install_and_exit.py"
+    script.write_text(INSTALL_AND_EXIT)
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "user"))
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.run([sys.executable, str(script), str(extension_zips["linux_x64"]),
+                           str(testdata / "test64.ply")],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "ENABLED bl_ext.user_default.splatline" in proc.stdout
+    for stream in (proc.stdout, proc.stderr):  # Blender prints the first line to stdout
+        assert "Traceback" not in stream and "Exception in module unregister" not in stream, stream[-3000:]

@@ -43,7 +43,11 @@ def _unregister_at_exit():
     unregister()
 
 
+_registered = False
+
+
 def register():
+    global _registered
     done = []
     try:
         for module in _modules():
@@ -53,10 +57,21 @@ def register():
         for module in reversed(done):
             module.unregister()
         raise
+    _registered = True
     atexit.register(_unregister_at_exit)
 
 
 def unregister():
+    """Tear everything down once: a second call, with nothing registered, does nothing.
+
+    The bpy module's exit disables every enabled add-on (bpy.utils._on_exit ->
+    addon_utils.disable_all) after our atexit hook has already run (LIFO), so an add-on
+    enabled through Blender (the installed extension zip) is unregistered twice at exit;
+    the second pass used to fail on the first class it met (SPLATLINE_MT_object)."""
+    global _registered
     atexit.unregister(_unregister_at_exit)
+    if not _registered:
+        return
+    _registered = False
     for module in reversed(_modules()):
         module.unregister()

@@ -155,6 +155,11 @@ def _prepare(bpy, args):
         scene.render.resolution_percentage = 100
     for option in args.engine_option:
         set_engine_option(scene.splatline.render, option)
+    # Meshes: the mesh layer (a scene of the meshes, composited under the splats) set up
+    # now, after the engine and its options; it is also set up on file load, but a .blend
+    # whose engine was another until this command (or a capture) has none yet.
+    from ..blender.render import mesh_layer
+    mesh_layer.sync(scene)
     if args.format:
         configure_output(scene, args.format, args.out, args.half)
     else:

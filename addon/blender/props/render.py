@@ -1,4 +1,5 @@
-"""Scene.splatline.render: the Splatline engine's quality settings (core RenderOptions)."""
+"""Scene.splatline.render: the Splatline engine's quality settings (core RenderOptions), and
+what it does with the scene's meshes (render/mesh_layer.py)."""
 import bpy
 
 from ...core.scene import RenderOptions
@@ -13,6 +14,20 @@ RENDERERS = (
      "backend (OpenGL, Vulkan, Metal): no extra wheel or driver; no depth pass", 3),
     ("REFERENCE", "Reference",
      "Exact float64 per-pixel CPU renderer: slow, for checking the fast ones", 1),
+)
+
+MESH_MODES = (
+    ("DRAW", "Drawn", "Meshes hide the splats behind them and are drawn under the splats by "
+     "the Mesh Engine, through the compositor (one final frame)", 0),
+    ("HOLDOUT", "Hide Splats Only", "Meshes hide the splats behind them but are not drawn: the "
+     "frame is the splat layer, with holes, for compositing elsewhere", 1),
+    ("IGNORE", "Ignored", "Splats only, as if there were no meshes", 2),
+)
+MESH_ENGINES = (
+    ("WORKBENCH", "Workbench", "Solid shading with the materials' viewport colours: fast, "
+     "also on a CPU rasterizer", 0),
+    ("EEVEE", "EEVEE", "Materials, lights and shadows; slow on a CPU rasterizer", 1),
+    ("CYCLES", "Cycles", "Path-traced materials and lights", 2),
 )
 
 
@@ -49,6 +64,20 @@ class RenderSettings(bpy.types.PropertyGroup):
         name="Motion Blur Samples", default=8, min=1, soft_max=32, max=256,
         description="Sub-frame renders averaged per frame when Output > Motion Blur is on "
                     "(shutter and position are Blender's); each costs one render")
+
+    meshes: bpy.props.EnumProperty(
+        name="Meshes", items=MESH_MODES, default="DRAW",
+        description="What the scene's meshes (and curves, text, surfaces, metaballs) do in a "
+                    "Splatline render")
+    mesh_engine: bpy.props.EnumProperty(
+        name="Mesh Engine", items=MESH_ENGINES, default="WORKBENCH",
+        description="Blender's engine that draws the meshes under the splats (its settings "
+                    "are those of the Mesh Scene)")
+    mesh_scene: bpy.props.PointerProperty(
+        name="Mesh Scene", type=bpy.types.Scene,
+        description="The scene Splatline keeps for the mesh layer: the same meshes, lights, "
+                    "camera and world, rendered by the Mesh Engine and composited under the "
+                    "splats (made and kept in step automatically)")
 
     def options(self, background=(0.0, 0.0, 0.0, 0.0)) -> RenderOptions:
         """The core RenderOptions these settings stand for."""

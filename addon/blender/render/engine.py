@@ -5,9 +5,16 @@ GL context, worker thread and GPU buffers) lives in a module-level holder instea
 created on the first frame of a render job, reused by the following frames, and
 closed when the job completes or is cancelled, and on unregister.
 Headless Ctrl+C stops a job between frames (core/stop.py).
+
+Meshes (issue 25): the surfaces the depsgraph shows hide the splat fragments behind them
+(RenderOptions.holdout from evaluate/holdout_geometry.py), and where the scene's mesh layer
+is attached (mesh_layer.py: a scene of the same meshes, drawn by Blender's own engine and
+composited under this engine's layer), this layer is the splats alone, transparent (the
+world is drawn in the mesh layer), and its Depth pass is the combined frame's.
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 import traceback
 from dataclasses import dataclass
@@ -17,11 +24,14 @@ import bpy
 from ...core import shutter
 from ...core.colorspace import composite_over, premultiplied_srgb_to_linear as to_scene_linear
 from ...core.errors import SplatFormatError
+from ...core.holdout import combine_depth, holdout_depth
 from ...core.stop import SigintGuard, stop_requested
-from . import motion_blur
+from . import mesh_layer, motion_blur
 from . import paths as render_paths
 from .camera import camera_from_blender
 from ..compat import world_uses_nodes
+from ..registration import app_handlers
+from ..evaluate.holdout_geometry import clear_cache as clear_holdout_cache, holdout_for
 from ..evaluate.items import collect_items
 from .film import blender_depth, bottom_up, region_camera, render_region
 
@@ -62,6 +72,7 @@ class _RendererHolder:
 
 
 _HOLDER = _RendererHolder()
+_WARNED: set = set()  # warnings given in this render job
 _SIGINT = SigintGuard()
 
 
@@ -75,6 +86,8 @@ class _Frame:
     region: object
     options: object
     views: list
+    meshes: str = "IGNORE"      # Scene.splatline.render.meshes
+    mesh_depth: bool = False    # the Depth pass combines the surfaces' depth (mesh layer drawn)
 
 
 class _Stopped(Exception):
@@ -121,12 +134,15 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         times = motion_blur.sub_frame_times(scene, scene.frame_current)
         items = collect_items(depsgraph)
         self._check()
+        drawn = settings.meshes == "DRAW" and mesh_layer.attached(scene)
         # One setting for the whole scene, so view layers do not swap renderers mid-job.
         want_depth = any(layer.use and layer.use_pass_z for layer in scene.view_layers)
         renderer, fresh = _HOLDER.get(settings.renderer, want_depth)
         if fresh and want_depth and not renderer.has_depth:  # once per job, not per frame
             self.report({"WARNING"}, f"Splatline: {_HOLDER.label} has no depth pass: "
                                      "Depth holds the background value everywhere")
+        if settings.meshes == "DRAW" and not drawn:
+            self._warn_meshes_not_drawn(scene, depsgraph)
         blur = f" | motion blur {len(times)} samples" if times else ""
         self.update_stats("", f"Splatline | {_HOLDER.label} | "
                               f"{sum(i.splats.count for i in items):,} splats{blur}")
@@ -138,10 +154,12 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
                                  f"expected the region {region.width}x{region.height}")
             # One view, or each eye of a stereo/multi-view render.
             frame = _Frame(depsgraph, camera_obj, renderer, region, settings.options(),
-                           [v.name for v in result.views])
+                           [v.name for v in result.views], settings.meshes, drawn and want_depth)
             films = self._blurred(frame, times) if times else self._films(frame, items)
             for view, (rgba, depth) in films.items():
-                if not r.film_transparent:  # the evaluated world: its colour may be animated
+                # The world: under the mesh layer where it is drawn, else under the splats
+                # (the evaluated world: its colour may be animated).
+                if not r.film_transparent and not drawn:
                     rgba = composite_over(rgba, world_background(depsgraph.scene_eval.world))
                 _write_view(result, view, rgba, depth)
         except BaseException:
@@ -150,16 +168,32 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         self.end_result(result)
         self.update_progress(1.0)
 
+    def _warn_meshes_not_drawn(self, scene, depsgraph):
+        """Once per job: surfaces hide splats, but the frame will not show them."""
+        if "meshes" in _WARNED or holdout_for(depsgraph) is None:
+            return
+        _WARNED.add("meshes")
+        self.report({"WARNING"}, "Splatline: meshes hide splats but are not drawn: "
+                                 + mesh_layer.why_not_attached(scene))
+
     def _films(self, frame, items) -> dict:
         """{view: (scene-linear premultiplied RGBA, Blender depth)} of the scene as the
         depsgraph holds it now."""
         films = {}
+        options = frame.options
+        holdout = holdout_for(frame.depsgraph) if frame.meshes != "IGNORE" else None
+        if holdout is not None:
+            options = dataclasses.replace(options, holdout=holdout)
         for view in frame.views:
             self.active_view_set(view)
             camera = self._view_camera(frame.depsgraph.scene, frame.camera_obj, frame.depsgraph)
-            out = frame.renderer.render(items, region_camera(camera, frame.region), frame.options)
+            camera = region_camera(camera, frame.region)
+            out = frame.renderer.render(items, camera, options)
             self._check()
-            films[view] = (to_scene_linear(out.rgba), blender_depth(out.depth))
+            depth = out.depth
+            if frame.mesh_depth and holdout is not None and frame.renderer.has_depth:
+                depth = combine_depth(depth, out.rgba[..., 3], holdout_depth(holdout, camera))
+            films[view] = (to_scene_linear(out.rgba), blender_depth(depth))
         return films
 
     def _blurred(self, frame, times) -> dict:
@@ -291,6 +325,7 @@ def _job_started(*_args):
 
 @bpy.app.handlers.persistent
 def _job_finished(*_args):
+    _WARNED.clear()
     _HOLDER.close()
     _SIGINT.job_ended()
 
@@ -300,15 +335,19 @@ _JOB_HANDLERS = (("render_init", _job_started), ("render_complete", _job_finishe
 
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory((SplatlineRenderEngine,))
+_register_mesh_layer, _unregister_mesh_layer = app_handlers(mesh_layer.handlers(),
+                                                            on_unregister=clear_holdout_cache)
 
 
 def register():
     _register_classes()
     for name, fn in _JOB_HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
+    _register_mesh_layer()
 
 
 def unregister():
+    _unregister_mesh_layer()
     for name, fn in _JOB_HANDLERS:
         handlers = getattr(bpy.app.handlers, name)
         while fn in handlers:

@@ -45,6 +45,10 @@ class GpuModuleRenderer:
             raise ValueError("panoramic cameras and depth of field need the moderngl or "
                              "Reference renderer (the Blender GPU module path draws pinhole "
                              "cameras only)")
+        if getattr(options, "holdout", None) is not None:
+            raise ValueError("meshes hiding splats need the moderngl or Reference renderer "
+                             "(the Blender GPU module path does not hold splats out); or set "
+                             "Render > Splatline > Meshes to Ignored")
         settings = DrawSettings(sync_sort=True, linear_output=False,
                                 antialiased=options.antialiased,
                                 capped_extent=options.capped_extent)

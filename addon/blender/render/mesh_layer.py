@@ -1,0 +1,435 @@
+"""Meshes are seen: the mesh layer of a Splatline scene, drawn by one of Blender's engines.
+
+A Splatline scene that holds visible surfaces (holdout_geometry.SURFACE_TYPES) and whose
+Render > Splatline > Meshes is Drawn gets:
+
+- a **mesh scene** (Scene.splatline.render.mesh_scene, named "<scene> (Splatline meshes)",
+  marked MARK): the same surface objects, lights and light probes linked (not copied) into
+  its own collections, the same camera, camera markers and world, and the engine chosen in
+  Mesh Engine (Workbench, EEVEE, Cycles). Splat objects are never linked into it (Blender
+  5.3 would draw them natively; older Blenders as points), nor collection instances that
+  would bring splats in;
+- a **compositor** in the Splatline scene: each Render Layers node of the scene's own layers
+  goes through an Alpha Over node (MESH_OVER) whose background is a Render Layers node of the
+  mesh scene (MESH_NODE). With no compositor of the user's, Splatline makes one (marked
+  OWNED: Render Layers -> Alpha Over -> output) and removes it again when it is not needed.
+
+Blender renders a scene that a Render Layers node references as part of the frame, at the
+same frame, size and border: F12, `blender -b -a`, bpy.ops.render.render and
+`python -m addon render` all give the same composite. Alpha Over with premultiplied
+colours is combined = splat + (1 - splat_alpha) * mesh, exact for opaque meshes because
+the engine held out the splat fragments behind them (holdout_geometry.py).
+
+When: `sync(scene)` makes the set-up match the scene. It runs after depsgraph updates (an
+edit, the engine chosen, an object added), after a file is loaded, and from the command
+line before it renders; never during a render (Blender 5.3 crashes when a scene that the
+compositor references changes in render_init). Every write is skipped where the value is
+already right, so a sync that finds nothing to do changes nothing (no update loop).
+"""
+from __future__ import annotations
+
+import bpy
+
+from .. import compat
+from ..data.pointcloud import COMPANION_MARK, is_splat_object
+from ..evaluate.holdout_geometry import is_surface
+
+ENGINE = "SPLATLINE"
+MARK = "splatline_meshes_of"          # on the mesh scene: the Splatline scene's name
+OWNED = "splatline_mesh_compositor"   # on a compositor tree Splatline made
+MESH_NODE = "Splatline Meshes"        # the Render Layers node of the mesh scene
+MESH_OVER = "Splatline Over Meshes"   # prefix of the Alpha Over nodes
+LIGHT_TYPES = frozenset({"LIGHT", "LIGHT_PROBE", "LIGHTPROBE"})
+# Render settings the mesh scene takes from the Splatline scene (size and border come from
+# the Splatline render itself; these decide its projection, blur and timing).
+COPIED = ("pixel_aspect_x", "pixel_aspect_y", "use_border", "use_crop_to_border",
+          "border_min_x", "border_max_x", "border_min_y", "border_max_y",
+          "resolution_x", "resolution_y", "resolution_percentage", "fps", "fps_base",
+          "use_motion_blur", "motion_blur_shutter", "motion_blur_position")
+ENGINES = {"WORKBENCH": ("BLENDER_WORKBENCH",), "EEVEE": ("BLENDER_EEVEE", "BLENDER_EEVEE_NEXT"),
+           "CYCLES": ("CYCLES",)}
+_busy = [0]       # render jobs running: no syncing then
+_syncing = [False]  # a sync in progress (its own depsgraph update runs the handler again)
+_wrote = [False]    # whether the sync in progress wrote anything
+
+
+def _wrote_now():
+    _wrote[0] = True
+
+
+def _set(owner, name, value) -> bool:
+    """owner.name = value unless it already is (no needless update tags); True if written."""
+    if getattr(owner, name) != value:
+        setattr(owner, name, value)
+        _wrote_now()
+        return True
+    return False
+
+
+# ---- which objects ----
+
+def _layer_objects(layer_collection, flags, out):
+    """Objects of the view layer's collection tree that the render sees, with the
+    (holdout, indirect_only) flags of the collections above them."""
+    collection = layer_collection.collection
+    if layer_collection.exclude or collection.hide_render:
+        return
+    flags = (flags[0] or layer_collection.holdout, flags[1] or layer_collection.indirect_only)
+    for obj in collection.objects:
+        out.setdefault(obj, flags)
+    for child in layer_collection.children:
+        _layer_objects(child, flags, out)
+
+
+def _holds_splats(collection, depth=0) -> bool:
+    if depth > 32:
+        return True
+    if any(is_splat_object(o) or _instances_splats(o, depth + 1) for o in collection.all_objects):
+        return True
+    return False
+
+
+def _instances_splats(obj, depth=0) -> bool:
+    inst = obj.instance_collection if obj.instance_type == "COLLECTION" else None
+    return inst is not None and _holds_splats(inst, depth)
+
+
+def drawn_objects(scene) -> dict:
+    """{object: (holdout, indirect_only)} of what the mesh layer draws: surfaces, lights and
+    light probes, and collection instances without splats in them, in the render-enabled
+    view layers of scene."""
+    found = {}
+    for layer in scene.view_layers:
+        if layer.use:
+            _layer_objects(layer.layer_collection, (False, False), found)
+    out = {}
+    for obj, flags in found.items():
+        if COMPANION_MARK in obj.keys() or is_splat_object(obj):
+            continue
+        if (is_surface(obj) or obj.type in LIGHT_TYPES
+                or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None
+                    and not _instances_splats(obj))):
+            out[obj] = flags
+    return out
+
+
+def has_surfaces(objects) -> bool:
+    return any(is_surface(o) or o.instance_type == "COLLECTION" for o in objects)
+
+
+# ---- the mesh scene ----
+
+def mesh_scene(scene):
+    """The scene's mesh scene, or None."""
+    companion = scene.splatline.render.mesh_scene
+    return companion if companion is not None and companion.get(MARK) is not None else None
+
+
+def is_mesh_scene(scene) -> bool:
+    return scene.get(MARK) is not None
+
+
+def engine_id(choice: str) -> str:
+    """Blender's identifier of the Mesh Engine choice in this Blender (EEVEE is
+    BLENDER_EEVEE_NEXT in 4.2-4.5, BLENDER_EEVEE in 5.x)."""
+    known = {item.identifier for item in
+             bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}
+    names = ENGINES[choice]
+    return next((n for n in names if n in known), names[0])
+
+
+def _ensure_scene(scene):
+    companion = mesh_scene(scene)
+    if companion is None:
+        _wrote_now()
+        companion = bpy.data.scenes.new(f"{scene.name} (Splatline meshes)")
+        companion[MARK] = scene.name
+        scene.splatline.render.mesh_scene = companion
+        r = companion.render
+        r.use_compositing = False
+        r.use_sequencer = False
+        companion.display.shading.color_type = "MATERIAL"
+    return companion
+
+
+def _child(companion, suffix, holdout=False, indirect=False, make=True):
+    """The mesh scene's sub-collection for objects with these collection flags (None where
+    there is none and make is False)."""
+    coll = next((c for c in companion.collection.children if c.get(MARK) == suffix), None)
+    if coll is None:
+        if not make:
+            return None
+        _wrote_now()
+        coll = bpy.data.collections.new(f"{companion.name} {suffix}")
+        coll[MARK] = suffix
+        companion.collection.children.link(coll)
+    if holdout or indirect:
+        view_layer = companion.view_layers[0]
+        if view_layer.layer_collection is None:  # 5.2+: synced lazily
+            view_layer.update()
+        layer = view_layer.layer_collection.children.get(coll.name)
+        _set(layer, "holdout", holdout)
+        _set(layer, "indirect_only", indirect)
+    return coll
+
+
+_GROUPS = {(False, False): ("drawn", {}), (True, False): ("holdout", {"holdout": True}),
+           (False, True): ("indirect", {"indirect": True}),
+           (True, True): ("holdout indirect", {"holdout": True, "indirect": True})}
+
+
+def _sync_objects(companion, objects):
+    for flags, (suffix, kind) in _GROUPS.items():
+        want = {o for o, f in objects.items() if f == flags}
+        coll = _child(companion, suffix, make=bool(want), **kind)
+        if coll is None:
+            continue
+        for obj in list(coll.objects):
+            if obj not in want:
+                _wrote_now()
+                coll.objects.unlink(obj)
+        for obj in want:
+            if coll.objects.get(obj.name) != obj:
+                _wrote_now()
+                coll.objects.link(obj)
+    for obj in list(companion.collection.objects):  # nothing loose in the master collection
+        _wrote_now()
+        companion.collection.objects.unlink(obj)
+
+
+def _sync_settings(scene, companion):
+    settings, r, src = scene.splatline.render, companion.render, scene.render
+    _set(r, "engine", engine_id(settings.mesh_engine))
+    for name in COPIED:
+        if name in src.bl_rna.properties and name in r.bl_rna.properties:
+            _set(r, name, getattr(src, name))
+    # The world is drawn by the mesh engine, under meshes and splats alike (the splat layer
+    # is rendered transparent then): film transparency is the Splatline scene's.
+    _set(r, "film_transparent", src.film_transparent)
+    _set(companion, "world", scene.world)
+    _set(companion, "camera", scene.camera)
+    _sync_markers(scene, companion)
+
+
+def _sync_markers(scene, companion):
+    """Camera switching: the mesh scene gets the Splatline scene's camera-bound markers."""
+    want = [(m.frame, m.camera) for m in scene.timeline_markers if m.camera is not None]
+    have = [(m.frame, m.camera) for m in companion.timeline_markers]
+    if sorted(want, key=_marker_key) == sorted(have, key=_marker_key):
+        return
+    _wrote_now()
+    companion.timeline_markers.clear()
+    for frame, camera in want:
+        companion.timeline_markers.new(f"F_{frame}", frame=frame).camera = camera
+
+
+def _marker_key(pair):
+    return pair[0], pair[1].name
+
+
+# ---- the compositor ----
+
+def _active_tree(scene):
+    tree = compat.compositor_tree(scene)
+    if "compositing_node_group" not in scene.bl_rna.properties and not scene.use_nodes:
+        return None  # 4.5: a tree that is switched off does not composite
+    return tree
+
+
+def _own_layer_nodes(tree, scene):
+    return [n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers"
+            and n.name != MESH_NODE and n.scene in (None, scene)]
+
+
+def _over_inputs(node):
+    """(background, foreground) inputs of an Alpha Over node: named in 5.x, both 'Image'
+    in 4.5 (inputs 1 and 2)."""
+    names = [s.name for s in node.inputs]
+    if "Background" in names:
+        return node.inputs["Background"], node.inputs["Foreground"]
+    return node.inputs[1], node.inputs[2]
+
+
+def _ensure_tree(scene):
+    tree = _active_tree(scene)
+    if tree is not None:
+        return tree
+    _wrote_now()
+    if "compositing_node_group" in scene.bl_rna.properties:
+        tree, output = compat.new_compositor(scene, f"{scene.name} Splatline meshes")
+    else:
+        tree, output = compat.new_compositor(scene, "")
+    tree[OWNED] = True
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    layers.scene = scene
+    layers.location = (-300, 0)
+    output.node.location = (300, 0)
+    tree.links.new(layers.outputs["Image"], output)
+    return tree
+
+
+def _attach(scene, companion) -> None:
+    tree = _ensure_tree(scene)
+    meshes = tree.nodes.get(MESH_NODE)
+    if meshes is None or meshes.bl_idname != "CompositorNodeRLayers":
+        _wrote_now()
+        meshes = tree.nodes.new("CompositorNodeRLayers")
+        meshes.name = meshes.label = MESH_NODE
+        meshes.location = (-300, -300)
+    if meshes.scene != companion:
+        _wrote_now()
+        meshes.scene = companion
+    _set(meshes, "layer", companion.view_layers[0].name)
+    for layers in _own_layer_nodes(tree, scene):
+        image = layers.outputs["Image"]
+        name = f"{MESH_OVER} {layers.name}"
+        over = tree.nodes.get(name)
+        if over is None:
+            _wrote_now()
+            over = tree.nodes.new("CompositorNodeAlphaOver")
+            over.name = over.label = name
+            over.location = (layers.location.x + 200, layers.location.y)
+        background, foreground = _over_inputs(over)
+        targets = [link.to_socket for link in image.links if link.to_node != over]
+        for link in list(image.links):
+            if link.to_node != over:
+                _wrote_now()
+                tree.links.remove(link)
+        for socket in targets:
+            tree.links.new(over.outputs[0], socket)
+        if not any(link.from_socket == image for link in foreground.links):
+            _wrote_now()
+            tree.links.new(image, foreground)
+        if not any(link.from_socket == meshes.outputs["Image"] for link in background.links):
+            _wrote_now()
+            tree.links.new(meshes.outputs["Image"], background)
+
+
+def _detach(scene) -> None:
+    tree = compat.compositor_tree(scene)
+    if tree is None:
+        return
+    if tree.get(OWNED):
+        _wrote_now()
+        if "compositing_node_group" in scene.bl_rna.properties:
+            scene.compositing_node_group = None
+            if tree.users == 0:
+                bpy.data.node_groups.remove(tree)
+        else:
+            tree.nodes.clear()
+            scene.use_nodes = False
+        return
+    for over in [n for n in tree.nodes if n.name.startswith(MESH_OVER)]:
+        _wrote_now()
+        _background, foreground = _over_inputs(over)
+        sources = [link.from_socket for link in foreground.links]
+        targets = [link.to_socket for link in over.outputs[0].links]
+        tree.nodes.remove(over)
+        for source in sources:
+            for socket in targets:
+                tree.links.new(source, socket)
+    meshes = tree.nodes.get(MESH_NODE)
+    if meshes is not None:
+        _wrote_now()
+        tree.nodes.remove(meshes)
+
+
+def attached(scene) -> bool:
+    """Whether the scene's final frame holds the mesh layer: compositing on, its tree with
+    the mesh scene's Render Layers node under an Alpha Over."""
+    companion = mesh_scene(scene)
+    tree = _active_tree(scene)
+    if companion is None or tree is None or not scene.render.use_compositing:
+        return False
+    meshes = tree.nodes.get(MESH_NODE)
+    return (meshes is not None and meshes.scene == companion and not meshes.mute
+            and any(n.name.startswith(MESH_OVER) and not n.mute for n in tree.nodes))
+
+
+def why_not_attached(scene) -> str:
+    """One line for the render's warning: why the mesh layer is not in the frame."""
+    if not scene.render.use_compositing:
+        return "Output > Post Processing > Compositing is off"
+    if mesh_scene(scene) is None:
+        return "the scene has no mesh scene yet (it is made after an edit or on file load)"
+    return ("the compositor has no Render Layers node of the mesh scene under an Alpha Over "
+            f"(set Meshes to Drawn again, or add {MESH_NODE!r} yourself)")
+
+
+# ---- sync ----
+
+def wanted(scene) -> bool:
+    return scene.render.engine == ENGINE and scene.splatline.render.meshes == "DRAW"
+
+
+def sync(scene) -> bool:
+    """Make the scene's mesh layer match it; True when anything was written.
+
+    Call it where no depsgraph is being evaluated (a script, an operator, load_post), or
+    as the depsgraph handler does: followed by depsgraph.update()."""
+    if is_mesh_scene(scene) or not hasattr(scene, "splatline"):
+        return False
+    _wrote[0] = False
+    objects = drawn_objects(scene) if wanted(scene) else {}
+    if not has_surfaces(objects):
+        _detach(scene)
+        return _wrote[0]
+    companion = _ensure_scene(scene)
+    _sync_objects(companion, objects)
+    _sync_settings(scene, companion)
+    _attach(scene, companion)
+    return _wrote[0]
+
+
+def _rendering() -> bool:
+    if _busy[0]:
+        return True
+    is_running = getattr(bpy.app, "is_job_running", None)
+    return bool(is_running and is_running("RENDER"))
+
+
+@bpy.app.handlers.persistent
+def _on_depsgraph_update(scene, depsgraph=None):
+    """After an edit (and before a render: the render operator updates the depsgraph first).
+
+    What sync links and makes must reach the depsgraph before Blender evaluates it again:
+    Blender 5.2+ re-evaluates a depsgraph whose handler tagged changes without rebuilding
+    it for collections that changed there, and crashes (SIGSEGV in
+    deg_check_base_in_depsgraph, measured on bpy 5.2.3 and 5.3.0). The depsgraph's own
+    update() here rebuilds and evaluates it first (this handler runs again inside it and
+    returns at once)."""
+    if _syncing[0] or _rendering() or scene is None:
+        return
+    if scene.render.engine != ENGINE and compat.compositor_tree(scene) is None:
+        return
+    _syncing[0] = True
+    try:
+        if sync(scene) and depsgraph is not None:
+            depsgraph.update()
+    finally:
+        _syncing[0] = False
+
+
+@bpy.app.handlers.persistent
+def _on_load(*_args):
+    _busy[0] = 0
+    for scene in bpy.data.scenes:
+        if scene.render.engine == ENGINE and not is_mesh_scene(scene):
+            sync(scene)
+
+
+@bpy.app.handlers.persistent
+def _job_started(*_args):
+    _busy[0] += 1
+
+
+@bpy.app.handlers.persistent
+def _job_ended(*_args):
+    _busy[0] = max(0, _busy[0] - 1)
+
+
+def handlers():
+    h = bpy.app.handlers
+    return ((h.depsgraph_update_post, _on_depsgraph_update), (h.load_post, _on_load),
+            (h.render_init, _job_started), (h.render_complete, _job_ended),
+            (h.render_cancel, _job_ended))

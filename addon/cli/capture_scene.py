@@ -2,6 +2,7 @@
 
 Shared by `render CAPTURE` (which then renders it exactly as it renders a .blend) and
 `import` (which adds the camera when the scene has none, so import-then-render works).
+Both scenes show the capture's own colours (Standard view transform, `use_capture_colours`).
 --camera is "orbit" (default), "front", or a camera-track JSON (camtrack.py's shapes).
 """
 from __future__ import annotations
@@ -49,6 +50,18 @@ def frame_range(camera, frames=None) -> tuple[int, int]:
     return 1, 1 + camera.last_frame
 
 
+def use_capture_colours(scene) -> None:
+    """Colour management that shows the capture's own colours: the Standard view transform
+    (scene-linear back to display sRGB, the inverse of the engine's conversion), no look,
+    exposure 0, gamma 1. Blender's default, AgX, tone-maps them: highlights top out near
+    214/255 and the frame is darker and less saturated than the capture (issue 27)."""
+    view = scene.view_settings
+    view.view_transform = "Standard"
+    view.look = "None"
+    view.exposure = 0.0
+    view.gamma = 1.0
+
+
 def add_camera(bpy, objects, camera, frames=None) -> None:
     """Key `camera` (a mode or a CameraTrack) on the scene, framing `objects` (splat
     objects; a track is tied to the first one's frame). frames: (start, end) or None."""
@@ -80,6 +93,7 @@ def build(bpy, path, camera, frames=None):
     except OSError as exc:
         raise SplatFormatError(path, exc.strerror or str(exc)) from None
     scene.render.film_transparent = True  # a bare capture: alpha is the subject's coverage
+    use_capture_colours(scene)
     try:
         add_camera(bpy, [obj], camera, frames)
     except ValueError as exc:

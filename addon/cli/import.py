@@ -60,6 +60,9 @@ def run(args) -> int:
 
     bpy = start()
     from ..blender.data.files import import_file_with_report
+    from .capture_scene import use_capture_colours
+
+    use_capture_colours(bpy.context.scene)  # a new scene: the capture's own colours, not AgX
 
     imported = []
     for path in args.files:

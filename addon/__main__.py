@@ -1,4 +1,5 @@
-"""Command line: python -m addon {info,convert,import,render,demo} ...
+"""Command line: python -m addon {info,convert,import,render,demo} ... (from the checkout), or
+`splatline ...` once installed with pip (pyproject.toml: the console script is `console`).
 
 Each subcommand lives in addon/cli/<name>.py with configure(parser) and run(args) -> int.
 Errors a user can cause exit non-zero with one line naming the file and the problem.
@@ -22,8 +23,8 @@ COMMANDS = {
 }
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m addon", description="Splatline command line")
+def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=prog, description="Splatline command line")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, help_text in COMMANDS.items():
         module = importlib.import_module(f".cli.{name}", __package__)
@@ -42,8 +43,8 @@ def _os_error_text(exc: OSError) -> str:
     return f"{' -> '.join(names)}: {reason}" if names else reason
 
 
-def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
+def main(argv=None, prog: str = "python -m addon") -> int:
+    args = _parser(prog).parse_args(argv)
     module = importlib.import_module(f".cli.{args.command}", __package__)
     try:
         return int(module.run(args) or 0)
@@ -59,6 +60,11 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+
+
+def console() -> None:
+    """The `splatline` command that `pip install .` puts on PATH."""
+    sys.exit(main(prog="splatline"))
 
 
 if __name__ == "__main__":

@@ -103,7 +103,8 @@ def test_one_zip_per_platform(extension_zips):
         assert any(n.startswith("addon/core/") for n in names)
         assert any(n.startswith("shaders/") and n.endswith(".glsl") for n in names)
         # Nothing from development gets shipped.
-        assert not any(n.startswith(("tests/", "bench/", ".venv/", ".git/", "wheels/.")) for n in names)
+        assert not any(n.startswith(("tests/", "bench/", ".venv/", ".git/", "wheels/.", "build/"))
+                       or n == "pyproject.toml" or ".egg-info/" in n for n in names)
         # Wheels for this platform only, one per Python the platform's Blenders run.
         wheels = [n.split("/", 1)[1][:-4].split("-") for n in names if n.startswith("wheels/")]
         tag, pythons = PLATFORM_WHEELS[platform]

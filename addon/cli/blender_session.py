@@ -1,13 +1,27 @@
 """Start bpy for the command line: factory settings, the add-on registered."""
 from __future__ import annotations
 
+import sys
+
 
 def start(blend_path=None):
     """Import bpy, load blend_path (or an empty factory scene) and register Splatline.
 
-    Returns the bpy module. Safe to call more than once in a process.
+    Returns the bpy module. Safe to call more than once in a process. Without bpy (a
+    `pip install .` without the blender extra), one line says what to install.
     """
-    import bpy
+    try:
+        import bpy
+    except ImportError as exc:
+        if exc.name != "bpy":  # bpy is there but broken (a missing system library...)
+            raise
+        from . import UserError
+
+        raise UserError(
+            "this command needs Blender's Python module: pip install bpy (bpy 4.5 and 5.0 "
+            "run on Python 3.11, bpy 5.1 and later on 3.13; this is Python "
+            f"{sys.version_info[0]}.{sys.version_info[1]})"
+        ) from None
 
     from .. import register
 

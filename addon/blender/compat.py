@@ -76,3 +76,13 @@ def compositor_tree(scene):
     if "compositing_node_group" in scene.bl_rna.properties:
         return scene.compositing_node_group
     return scene.node_tree
+
+
+def active_compositor(scene):
+    """The compositor tree that composites this scene's frames, or None: 5.x's
+    compositing_node_group; 4.5's node_tree only while scene.use_nodes is on (a tree that
+    was switched off stays on the scene, unused). Render > Post Processing > Compositing
+    (render.use_compositing) is the caller's to check."""
+    if "compositing_node_group" in scene.bl_rna.properties:
+        return scene.compositing_node_group
+    return scene.node_tree if scene.use_nodes else None

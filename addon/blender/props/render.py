@@ -31,6 +31,17 @@ MESH_ENGINES = (
 )
 
 
+# Called with the scene when Meshes or Mesh Engine change (render/mesh_layer.py puts its sync
+# here at register: props/ imports nothing above it). Blender runs no depsgraph handler for
+# a change of an add-on property alone.
+MESH_SETTING_HOOKS: list = []
+
+
+def _mesh_setting_changed(self, _context):
+    for hook in MESH_SETTING_HOOKS:
+        hook(self.id_data)
+
+
 class RenderSettings(bpy.types.PropertyGroup):
     renderer: bpy.props.EnumProperty(
         name="Renderer", items=RENDERERS, default="AUTO",
@@ -66,11 +77,11 @@ class RenderSettings(bpy.types.PropertyGroup):
                     "(shutter and position are Blender's); each costs one render")
 
     meshes: bpy.props.EnumProperty(
-        name="Meshes", items=MESH_MODES, default="DRAW",
+        name="Meshes", items=MESH_MODES, default="DRAW", update=_mesh_setting_changed,
         description="What the scene's meshes (and curves, text, surfaces, metaballs) do in a "
                     "Splatline render")
     mesh_engine: bpy.props.EnumProperty(
-        name="Mesh Engine", items=MESH_ENGINES, default="WORKBENCH",
+        name="Mesh Engine", items=MESH_ENGINES, default="WORKBENCH", update=_mesh_setting_changed,
         description="Blender's engine that draws the meshes under the splats (its settings "
                     "are those of the Mesh Scene)")
     mesh_scene: bpy.props.PointerProperty(

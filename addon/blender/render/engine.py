@@ -344,9 +344,11 @@ def register():
     for name, fn in _JOB_HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
     _register_mesh_layer()
+    mesh_layer.hook_settings()
 
 
 def unregister():
+    mesh_layer.unhook_settings()
     _unregister_mesh_layer()
     for name, fn in _JOB_HANDLERS:
         handlers = getattr(bpy.app.handlers, name)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import bpy
 
 from .. import compat
+from ..props import render as render_props
 from ..data.pointcloud import COMPANION_MARK, is_splat_object
 from ..evaluate.holdout_geometry import is_surface
 
@@ -229,13 +230,6 @@ def _marker_key(pair):
 
 # ---- the compositor ----
 
-def _active_tree(scene):
-    tree = compat.compositor_tree(scene)
-    if "compositing_node_group" not in scene.bl_rna.properties and not scene.use_nodes:
-        return None  # 4.5: a tree that is switched off does not composite
-    return tree
-
-
 def _own_layer_nodes(tree, scene):
     return [n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers"
             and n.name != MESH_NODE and n.scene in (None, scene)]
@@ -251,7 +245,7 @@ def _over_inputs(node):
 
 
 def _ensure_tree(scene):
-    tree = _active_tree(scene)
+    tree = compat.active_compositor(scene)
     if tree is not None:
         return tree
     _wrote_now()
@@ -306,7 +300,7 @@ def _attach(scene, companion) -> None:
 
 
 def _detach(scene) -> None:
-    tree = compat.compositor_tree(scene)
+    tree = compat.active_compositor(scene)
     if tree is None:
         return
     if tree.get(OWNED):
@@ -315,8 +309,9 @@ def _detach(scene) -> None:
             scene.compositing_node_group = None
             if tree.users == 0:
                 bpy.data.node_groups.remove(tree)
-        else:
+        else:  # 4.5: the tree is the scene's own; leave it empty, switched off, unmarked
             tree.nodes.clear()
+            del tree[OWNED]
             scene.use_nodes = False
         return
     for over in [n for n in tree.nodes if n.name.startswith(MESH_OVER)]:
@@ -338,7 +333,7 @@ def attached(scene) -> bool:
     """Whether the scene's final frame holds the mesh layer: compositing on, its tree with
     the mesh scene's Render Layers node under an Alpha Over."""
     companion = mesh_scene(scene)
-    tree = _active_tree(scene)
+    tree = compat.active_compositor(scene)
     if companion is None or tree is None or not scene.render.use_compositing:
         return False
     meshes = tree.nodes.get(MESH_NODE)
@@ -400,7 +395,7 @@ def _on_depsgraph_update(scene, depsgraph=None):
     returns at once)."""
     if _syncing[0] or _rendering() or scene is None:
         return
-    if scene.render.engine != ENGINE and compat.compositor_tree(scene) is None:
+    if scene.render.engine != ENGINE and compat.active_compositor(scene) is None:
         return
     _syncing[0] = True
     try:
@@ -426,6 +421,23 @@ def _job_started(*_args):
 @bpy.app.handlers.persistent
 def _job_ended(*_args):
     _busy[0] = max(0, _busy[0] - 1)
+
+
+def _setting_changed(scene):
+    """Meshes or Mesh Engine set (panel, script, --engine-option): sync now, outside any
+    depsgraph evaluation."""
+    if not _rendering() and not _syncing[0] and scene is not None:
+        sync(scene)
+
+
+def hook_settings():
+    if _setting_changed not in render_props.MESH_SETTING_HOOKS:
+        render_props.MESH_SETTING_HOOKS.append(_setting_changed)
+
+
+def unhook_settings():
+    while _setting_changed in render_props.MESH_SETTING_HOOKS:
+        render_props.MESH_SETTING_HOOKS.remove(_setting_changed)
 
 
 def handlers():

@@ -1,12 +1,12 @@
 """`pip install .` gives the `splatline` command, which works from any folder (issue 27).
 
-A fresh venv of this Python (no pip, no site-packages of its own) gets this venv's packages
-through a folder of links named in a .pth file, first without bpy: the package is then
-installed offline (`--no-build-isolation --no-deps --no-index`, with the setuptools that
-requirements/ pins) from a copy of the checkout, and run from an empty folder outside it.
-Without bpy, info and convert work and import says in one line what to install; with
-bpy linked in too, import and render work, so the shaders and presets were installed
-beside the code (the installed package is laid out as the extension zip is).
+A fresh venv of this Python (no pip, no site-packages of its own) sees this venv's packages,
+all but bpy, through a folder of links named in a .pth file. The package is installed into
+it offline (`--no-build-isolation --no-deps --no-index`, with the setuptools requirements/
+pins) from a copy of the checkout, and run from an empty folder outside the checkout.
+Without bpy, info and convert work and import says in one line what to install; with bpy
+added (PYTHONPATH: a folder linking to it), import and render work, so the shaders and
+presets were installed beside the code (the package is laid out as the extension zip is).
 """
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def _backend_missing() -> str | None:
 
 
 def _link_site_packages(links: pathlib.Path, with_bpy: bool) -> None:
-    """Links to this venv's installed packages (bpy's only if with_bpy)."""
+    """Links to this venv's installed packages: all but bpy's, or bpy's alone."""
     links.mkdir(exist_ok=True)
     paths = sysconfig.get_paths()
     for site in dict.fromkeys((paths["purelib"], paths["platlib"])):
@@ -51,7 +51,8 @@ def _link_site_packages(links: pathlib.Path, with_bpy: bool) -> None:
 
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory):
-    """(venv, links folder, an empty folder outside the checkout) with splatline installed."""
+    """(venv, a folder linking to bpy, an empty folder outside the checkout): splatline
+    installed in the venv, which sees this venv's packages but bpy."""
     missing = _backend_missing()
     if missing:
         pytest.skip(f"{missing} in {sys.prefix}: pyproject.toml builds with setuptools >= 77, "
@@ -73,12 +74,16 @@ def installed(tmp_path_factory):
     assert pip.returncode == 0, pip.stdout[-3000:] + pip.stderr[-3000:]
     elsewhere = base / "elsewhere"
     elsewhere.mkdir()
-    return venv, links, elsewhere
+    bpy_links = base / "bpy_links"
+    _link_site_packages(bpy_links, with_bpy=True)
+    return venv, bpy_links, elsewhere
 
 
-def _splatline(installed, *args, timeout=120):
-    venv, _, cwd = installed
+def _splatline(installed, *args, timeout=120, with_bpy=False):
+    venv, bpy_links, cwd = installed
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    if with_bpy:
+        env["PYTHONPATH"] = str(bpy_links)
     env["PATH"] = f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}"
     return subprocess.run(["splatline", *map(str, args)], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=timeout)
@@ -139,15 +144,14 @@ def test_import_without_bpy_says_what_to_install(installed, testdata):
 
 
 def test_import_and_render_with_bpy(installed, testdata):
-    """bpy linked in: the installed presets (an effect preset, a render preset) and shaders."""
-    _link_site_packages(installed[1], with_bpy=True)
+    """bpy added: the installed presets (an effect preset, a render preset) and shaders."""
     cwd = installed[2]
     run = _splatline(installed, "import", testdata / "guitar.ply", "--blend", "g.blend",
-                     "--effect-preset", "fade_in", "--camera", "front", timeout=300)
+                     "--effect-preset", "fade_in", "--camera", "front", timeout=300, with_bpy=True)
     assert run.returncode == 0, run.stdout + run.stderr
     assert (cwd / "g.blend").is_file()
     run = _splatline(installed, "render", "g.blend", "--out", "frames", "--frames", "1-1",
-                     "--resolution", "64x48", "--preset", "png_16bit", timeout=300)
+                     "--resolution", "64x48", "--preset", "png_16bit", timeout=300, with_bpy=True)
     assert run.returncode == 0, run.stdout + run.stderr
     from engine_scene import read_image
 

@@ -204,3 +204,19 @@ def test_other_engines_get_no_mesh_layer_and_user_trees_are_kept(guitar):
     assert glare.inputs[0].links[0].from_node == layers
     assert {n.bl_idname for n in tree.nodes} >= {"CompositorNodeRLayers", "CompositorNodeGlare"}
     assert not any(n.name.startswith("Splatline") for n in tree.nodes)
+
+
+def test_render_panel_shows_the_mesh_settings(guitar):
+    """Render tab > Splatline: Meshes, Mesh Engine and the (read-only) Mesh Scene."""
+    from types import SimpleNamespace
+
+    from addon.blender.ui import render_panel
+    from test_ui_access import RecordingLayout, _check_names_exist
+
+    bpy, scene, *_ = guitar
+    layout = RecordingLayout()
+    context = SimpleNamespace(scene=scene, engine=render_panel.ENGINE)
+    bpy.types.SPLATLINE_PT_render.draw(SimpleNamespace(layout=layout), context)
+    _check_names_exist(bpy, layout.record)
+    props = [what[1] for kind, what, _ in layout.record if kind == "prop"]
+    assert {"meshes", "mesh_engine", "mesh_scene"} <= set(props)

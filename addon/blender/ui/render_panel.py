@@ -49,7 +49,22 @@ class SPLATLINE_PT_render(bpy.types.Panel):
         sub.active = settings.renderer in {"AUTO", "OFFSCREEN"}
         sub.prop(settings, "gpu_sort")
         layout.prop(context.scene.render, "film_transparent")
+        _draw_meshes(layout, settings)
         _draw_motion_blur(layout, context.scene)
+
+
+def _draw_meshes(layout, settings) -> None:
+    """Meshes (issue 25): what they do, which of Blender's engines draws them, and the
+    scene Splatline keeps for that (its own render settings: samples, shading)."""
+    col = layout.column(heading="Meshes")
+    col.prop(settings, "meshes", text="Meshes")
+    sub = col.column()
+    sub.active = settings.meshes == "DRAW"
+    sub.prop(settings, "mesh_engine")
+    if settings.mesh_scene is not None:
+        row = sub.row()
+        row.enabled = False
+        row.prop(settings, "mesh_scene", text="Mesh Scene")
 
 
 def _draw_motion_blur(layout, scene) -> None:

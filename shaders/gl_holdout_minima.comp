@@ -1,6 +1,7 @@
 // Offscreen renderer, holdout with batches (GL 4.3): the smallest centre depth (rec1.z,
 // the value the draw stage tests against the holdout) of one front-to-back batch, into
-// minima[u_slot] as order-preserving bits. A batch's splats all lie at or behind it, so
+// minima[u_slot] as order-preserving bits, and the largest of the frame (the depth
+// encoding's range, gl/composite.py). A batch's splats all lie at or behind it, so
 // between batches every pixel whose surface is nearer than the minimum of the batches
 // still to come is closed for them (gl_saturation_map.comp), exactly: their fragments
 // there would all be dropped. Each invocation takes SPAN ranks, one atomic each.
@@ -13,6 +14,7 @@ uniform uint u_visible;  // splats in the frame's order (back to front)
 uniform uint u_first;    // the batch's first front-to-back rank
 uniform uint u_count;    // and its splats
 uniform uint u_slot;
+uniform uint u_max_slot;  // where the largest centre depth of all batches goes (atomicMax)
 
 const uint SPAN = 64u;
 
@@ -27,8 +29,12 @@ void main()
     uint start = gl_GlobalInvocationID.x * SPAN;
     if (start >= u_count) return;
     uint stop = min(start + SPAN, u_count);
-    float z = uintBitsToFloat(0x7f800000u);  // +inf
-    for (uint r = start; r < stop; r++)
-        z = min(z, record(1, u_visible - 1u - (u_first + r)).z);
+    float z = uintBitsToFloat(0x7f800000u), far = -z;  // +inf, -inf
+    for (uint r = start; r < stop; r++) {
+        float d = record(1, u_visible - 1u - (u_first + r)).z;
+        z = min(z, d);
+        far = max(far, d);
+    }
     atomicMin(minima[u_slot], ordered_bits(z));
+    atomicMax(minima[u_max_slot], ordered_bits(far));
 }

@@ -26,12 +26,13 @@ uniform ivec2 u_tile_size;
 const float SL_T_STOP = 1.0e-4;  // twin of core/reference.py T_STOP
 
 #ifdef SL_HOLDOUT
-// Holdout (issue 25; the cells pass only): a pixel is closed too where its surface
-// (gl_holdout.frag) lies at or in front of every splat still to be drawn, the least of
-// the remaining batches' minima (gl_holdout_minima.comp): their fragments there would
-// all be dropped. u_saturate false (early termination off): closed only so.
-uniform sampler2D u_holdout;  // the tile's surface depths (+inf: none)
+// Holdout (issue 25; the cells pass only): a cell is closed too where its surface lies at
+// or in front of every splat still to be drawn: the farthest surface under the cell
+// (gl_holdout_cells.comp) against the least centre depth of the remaining batches
+// (gl_holdout_minima.comp); their fragments there would all be dropped. u_saturate false
+// (early termination off): closed only so.
 layout(std430, binding = 13) readonly buffer Minima { uint minima[]; };
+layout(std430, binding = 14) readonly buffer CellMax { float cell_max[]; };
 uniform uint u_batch;    // the next batch
 uniform uint u_batches;  // batches in the frame
 uniform bool u_saturate;
@@ -41,6 +42,13 @@ float from_ordered_bits(uint u)
 {
     return uintBitsToFloat((u & 0x80000000u) != 0u ? (u & 0x7FFFFFFFu) : ~u);
 }
+
+bool cell_held(uvec2 cell)
+{
+    uint least = 0xFFFFFFFFu;
+    for (uint b = u_batch; b < u_batches; b++) least = min(least, minima[b]);
+    return cell_max[cell.y * u_size.x + cell.x] <= from_ordered_bits(least);
+}
 #endif
 
 // all 16 pixels read, no early exit: with one (divergent across lanes on llvmpipe) the
@@ -48,22 +56,11 @@ float from_ordered_bits(uint u)
 bool cell_saturated(ivec2 cell)
 {
     bool all_done = true;
-#ifdef SL_HOLDOUT
-    uint least = 0xFFFFFFFFu;
-    for (uint b = u_batch; b < u_batches; b++) least = min(least, minima[b]);
-    float z_next = from_ordered_bits(least);
-#endif
     for (int j = 0; j < 4; j++) {
         for (int i = 0; i < 4; i++) {
             ivec2 p = cell * 4 + ivec2(i, j);
-#ifdef SL_HOLDOUT
-            bool open = (!u_saturate || texelFetch(u_colour, p, 0).a <= 1.0 - SL_T_STOP)
-                && !(texelFetch(u_holdout, p, 0).r <= z_next);
-            if (p.x < u_tile_size.x && p.y < u_tile_size.y && open) all_done = false;
-#else
             if (p.x < u_tile_size.x && p.y < u_tile_size.y
                     && texelFetch(u_colour, p, 0).a <= 1.0 - SL_T_STOP) all_done = false;
-#endif
         }
     }
     return all_done;
@@ -91,7 +88,11 @@ void main()
     uvec2 w = gl_GlobalInvocationID.xy;
     if (w.x >= u_size.x || w.y >= u_size.y) return;
 #if SL_PASS == 0
+#ifdef SL_HOLDOUT
+    cells[w.y * u_size.x + w.x] = (u_saturate && cell_saturated(ivec2(w))) || cell_held(w) ? 1u : 0u;
+#else
     cells[w.y * u_size.x + w.x] = cell_saturated(ivec2(w)) ? 1u : 0u;
+#endif
 #elif SL_PASS == 1
     uint word = 0u;
     for (uint b = 0u; b < 32u; b++) {

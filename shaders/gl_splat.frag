@@ -10,13 +10,6 @@ flat in float v_depth;
 layout(location = 0) out vec4 frag;
 layout(location = 1) out vec4 frag_z;
 
-#ifdef SL_HOLDOUT
-// Holdout (issue 25, core/holdout.py): the depth of the nearest opaque surface under each
-// pixel centre of the tile (gl_holdout.frag; +inf where none). A fragment is composited
-// only where the splat's centre lies in front of it.
-uniform sampler2D u_holdout;
-#endif
-
 void main()
 {
     // v_w was interpolated at this pixel's centre: sl_alpha there, one dot product
@@ -25,10 +18,6 @@ void main()
     // leaves the target as it was (dst + 0), the same pixels as a discard would, and on
     // llvmpipe ~15% cheaper per frame than a discard (no per-fragment kill mask)
     alpha = alpha < SL_ALPHA_MIN ? 0.0 : alpha;
-#ifdef SL_HOLDOUT
-    // held out: a zero source, like the 1/255 cut (the pixel's transmittance unchanged)
-    if (!(v_depth < texelFetch(u_holdout, ivec2(gl_FragCoord.xy), 0).r)) alpha = 0.0;
-#endif
     frag = vec4(v_colour.rgb * alpha, alpha);
     frag_z = vec4(v_depth * alpha, 0.0, 0.0, alpha);
 }

@@ -68,6 +68,18 @@ vec4 open_cells(vec2 centre, vec2 extent)
 
 uniform bool u_capped_extent;  // quads cut at 3 sigma: keep the square (its corners are in)
 
+#ifdef SL_HOLDOUT
+// Holdout (issue 25, gl/holdout.py): the tile's depth buffer holds the nearest surface's
+// depth under each pixel, encoded linearly (gl_holdout_resolve.frag); a splat's quad lies
+// at its centre depth, encoded the same way and raised by SL_HOLDOUT_BIAS (twice the
+// rounding of the two encodings, the viewport transform and the 24-bit depth buffer), so
+// the depth test (LESS, no depth writes) keeps a fragment only where the centre lies in
+// front of the surface: never one behind it (gl/composite.py, held_band).
+uniform vec2 u_holdout_enc;  // lo, scale: enc(z) = SL_ENC_BASE + (z - lo) * scale
+const float SL_ENC_BASE = 0.0625;
+const float SL_HOLDOUT_BIAS = 9.5367431640625e-07;  // 2^-20, composite.HOLDOUT_BIAS
+#endif
+
 // Half-axes (columns) of a rectangle holding the ellipse d^T conic d <= 2 ln(255 o), the
 // pixels where alpha >= 1/255. The long half-axis is the square's radius (it is that
 // ellipse's, from the same eigenvalue); the short one is padded for the float32 error
@@ -164,6 +176,11 @@ void main()
     }
     v_w = sl_whiten(pix - r0.xy, conic);
     vec2 ndc = (pix - u_tile.xy) / u_tile.zw * 2.0 - 1.0;
+#ifdef SL_HOLDOUT
+    float enc = SL_ENC_BASE + (r1.z - u_holdout_enc.x) * u_holdout_enc.y + SL_HOLDOUT_BIAS;
+    gl_Position = vec4(ndc.x, ndc.y, clamp(enc, 0.0, 0.9375) * 2.0 - 1.0, 1.0);
+#else
     // z = 0.5 (window depth 0.75): behind GL 3.3's saturation marks (0.5), before the clear
     gl_Position = vec4(ndc.x, ndc.y, 0.5, 1.0);
+#endif
 }

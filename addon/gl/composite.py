@@ -21,18 +21,27 @@ The Z pass is one more RGBA32F attachment blended the same way: its red channel 
 T_i alpha_i z_i (green and blue are masked off). Divided by the accumulated alpha it is
 the alpha-weighted depth RenderOutput defines; same draws, no extra pass.
 
-Holdout (issue 25, gl/holdout.py): with a tile's surface depth map, the draw and the
-early-termination passes are variants compiled with SL_HOLDOUT (frames without a holdout
-run the programs above, unchanged). The fragment stage zeroes every fragment whose centre
-depth is not in front of the surface there; it adds no alpha, so it never counts toward
-saturation. The batches are then also the holdout's culling: the smallest centre depth
-of each batch is gathered first (gl_holdout_minima.comp; on GL 3.3 from the CPU's
-records), and before each batch, the first one included, a pixel is closed where it is
-saturated or its surface lies at or in front of every splat still to be drawn, exactly
-the pixels where all their fragments would be dropped. Splats behind a mesh are so culled
-in the vertex stage, and the pixels under it, which never saturate, cost no more than
-without the mesh. With early termination off the batches run as well, closing pixels
-only by the surface (exact).
+Holdout (issue 25, gl/holdout.py): the tile's surface depth map (R32F) is written into a
+depth buffer, linearly encoded over the depths where splats and surface overlap
+(gl_holdout_resolve.frag), and the draw stage's SL_HOLDOUT variant puts each quad at
+its centre depth, encoded alike and raised by a bias above the encodings' rounding
+(gl_splat.vert): the early depth test (LESS, no writes) then drops every fragment whose
+centre is not in front of the surface there, before its shader runs, and never keeps one
+behind it; a fragment within 2.4e-6 of that depth span in front of the surface may be
+dropped with them (held_band: 4.3 um on the bench frame, 1.85 m of overlap). A dropped
+fragment adds no alpha, so it never counts toward saturation. A per-fragment read of
+the map instead cost 1.4x the frame with no surface in view (llvmpipe: a gather per lane,
+with or without a branch around it), the depth test 1.10-1.16x.
+On the compute path the batches also cull: each batch's smallest centre depth is gathered
+first (gl_holdout_minima.comp, with the frame's largest, the encoding's range), and
+before each later batch a cell is closed too where its surface lies at or in front of
+every splat still to be drawn (exact: all their fragments there would be dropped), so
+splats behind a mesh are dropped in the vertex stage (0.83x the bench frame's time
+without this culling, A/B in one process). With early termination off the
+batches run as well, closing cells only by the surface. On GL 3.3 the depth test does it
+alone; its saturation marks go to depth 0, below every encoded splat.
+Frames without a holdout, or whose surfaces all lie behind every splat, run the programs
+above unchanged.
 """
 from __future__ import annotations
 
@@ -54,6 +63,14 @@ B_CELLS = 9  # and of its level 0 as one uint a cell, before packing
 CELLS, PACK, REDUCE = 0, 1, 2  # gl_saturation_map.comp's passes
 HOLDOUT_UNIT = 7  # texture unit of the tile's holdout depth map
 B_MINIMA = 13  # storage binding of the batches' least centre depths (holdout)
+MAX_SLOT = MAX_BREAKS + 1  # its slot of the frame's largest centre depth, after the batches'
+B_CELL_MAX = 14  # storage binding of the farthest surface under each level-0 cell
+# the depth encoding of holdout frames (gl_splat.vert, gl_holdout_resolve.frag): the
+# overlap of splat and surface depths maps to [ENC_BASE, ENC_BASE + ENC_SPAN] of the
+# 24-bit depth buffer; quads are raised by HOLDOUT_BIAS, over twice the rounding of the
+# two encodings, the viewport transform and the buffer's 2^-24 steps (7.5 x 2^-24 at most)
+ENC_BASE, ENC_SPAN = 1 / 16, 13 / 16
+HOLDOUT_BIAS = 2.0 ** -20
 MINIMA_SPAN = 64 * 64  # ranks per work group of gl_holdout_minima.comp (64 lanes x SPAN 64)
 DRAW_CHUNK = 16384  # splats per draw call where the compositor flushes (software GL)
 FIRST_CHUNK = 1024  # a batch's first draw there; each next one doubles up to DRAW_CHUNK
@@ -120,7 +137,9 @@ class Compositor:
         self.variants = {False: (self.draw, self.mark)}  # holdout variant compiled on first use
         self.sat_cells = {False: self.sat_map[CELLS]} if self.sat_map else {}
         self.minima = None  # (program, buffer) on the compute path, once a holdout comes
-        self.held = None  # this tile's holdout: texture, per-batch z_next (CPU) or None
+        self.resolve = None  # the surface map -> depth buffer program, once a holdout comes
+        self.cell_max = None  # the farthest surface per cell (compute path), likewise
+        self.held = None  # this tile's holdout: texture, batches, saturate; or None
         self.targets: dict = {}
         self.splat_draws = 0  # batches of splats drawn in the last tile (stats and tests)
         self.breaks = 0  # early-termination passes between them (map or marks)
@@ -163,7 +182,8 @@ class Compositor:
                 self.sat_cells[True] = ctx.compute_shader(shaders.source(
                     "gl_saturation_map.comp", math=False, defines={"SL_PASS": CELLS, "SL_HOLDOUT": 1}))
                 self.minima = (ctx.compute_shader(shaders.source("gl_holdout_minima.comp", math=False)),
-                               ctx.buffer(reserve=4 * (MAX_BREAKS + 1)))
+                               ctx.buffer(reserve=4 * (MAX_SLOT + 1)))
+                self.cell_max = ctx.compute_shader(shaders.source("gl_holdout_cells.comp", math=False))
             draw = ctx.program(
                 vertex_shader=shaders.source("gl_splat.vert", records=records, defines=defines),
                 fragment_shader=shaders.source("gl_splat.frag", records=records, defines=defines))
@@ -171,28 +191,43 @@ class Compositor:
                 vertex_shader=shaders.source("gl_fullscreen.vert", math=False, records=records),
                 fragment_shader=shaders.source("gl_saturate.frag", math=False, records=records,
                                                defines={"SL_HOLDOUT": 1}))
-            for p in (draw, mark):
+            self.resolve = ctx.program(
+                vertex_shader=shaders.source("gl_fullscreen.vert", math=False, records=records),
+                fragment_shader=shaders.source("gl_holdout_resolve.frag", math=False, records=records))
+            for p in (draw, mark, self.resolve):
                 if p is not None:
                     self.vaos[p] = ctx.vertex_array(p, [])
             self.variants[holdout] = (draw, mark)
         return self.variants[holdout]
 
     def run(self, tile, visible: int, early_termination: bool, want_z: bool, capped: bool = False,
-            holdout=None, front_depths=None):
+            surface=None, front_depths=None):
         """Composite one tile (the order and records are bound). Returns (rgba, depth):
         (h, w, 4) premultiplied splats only (no background) and (h, w) alpha-weighted
         depth (inf below alpha 0.5, or everywhere without want_z), both top-down.
-        holdout: the tile's surface depth map (gl/holdout.py), or None; front_depths: on
-        the GL 3.3 path with a holdout, the records' centre depths back to front."""
+        surface: the frame's holdout (gl/holdout.Surface: its depth bounds, and its map of
+        this tile drawn on demand), or None; front_depths: on the GL 3.3 path, the records'
+        centre depths back to front."""
         x0, y0, w, h = tile
-        self.draw, self.mark = self.programs_for(holdout is not None)
-        plan = batches(visible, early_termination or holdout is not None)
-        self.held = None if holdout is None else self._hold(holdout, plan, visible, front_depths,
-                                                            early_termination)
+        compute = self.sat_map is not None
+        plan = batches(visible, early_termination or (surface is not None and compute))
+        if surface is not None:
+            self.programs_for(True)  # compiles the holdout programs on first use
+        enc = self._encoding(surface, plan, visible, front_depths) if surface is not None and visible else None
+        if enc is None:
+            plan = batches(visible, early_termination)
+        self.draw, self.mark = self.programs_for(enc is not None)
         t = self._targets(w, h)
         if "mark" in t:
             t["mark"].clear(depth=1.0)  # the splat framebuffers don't write depth, not even clears
-        fbo = t["with_z"] if want_z else t["plain"]
+        self.held = None
+        if enc is not None:
+            texture = surface.draw(tile)
+            self.held = {"batches": len(plan), "saturate": bool(early_termination)}
+            self._resolve(t, w, h, texture, enc)
+            set_uniform(self.draw, "u_holdout_enc", enc)
+        suffix = "_held" if self.held is not None and compute else ""
+        fbo = t[("with_z" if want_z else "plain") + suffix]
         fbo.use()
         fbo.viewport = (0, 0, w, h)
         fbo.clear(0.0, 0.0, 0.0, 0.0)
@@ -203,46 +238,82 @@ class Compositor:
         if "u_visible" in draw:
             draw["u_visible"].value = visible
         self._use_map(t, 0)
-        if holdout is not None:
-            holdout.use(HOLDOUT_UNIT)
-            draw["u_holdout"].value = HOLDOUT_UNIT
-        tests = moderngl.BLEND | (moderngl.DEPTH_TEST if "mark" in t else 0)
+        tests = moderngl.BLEND | (moderngl.DEPTH_TEST if "mark" in t or self.held is not None else 0)
         ctx.enable(tests)
         ctx.depth_func = "<"
         ctx.blend_func = moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE
         for number, (first, count) in enumerate(plan):
-            if number or holdout is not None:  # with a holdout, before the first batch too
+            if number:
                 self._break(t, w, h, number)
                 fbo.use()
             self._draw(first, count)
         ctx.disable(tests)
         return self._read(fbo, w, h, want_z)
 
-    def _hold(self, holdout, plan, visible: int, front_depths, early_termination: bool) -> dict:
-        """The tile's holdout state for the breaks: its map, the batch count, whether
-        pixels saturate, and each batch's least centre depth still to come (GL 3.3: on
-        the CPU; compute path: gathered into the minima buffer here)."""
-        held = {"texture": holdout, "batches": len(plan), "saturate": bool(early_termination)}
+    def _encoding(self, surface, plan, visible: int, front_depths):
+        """(lo, scale) of the depth encoding enc(z) = ENC_BASE + (z - lo) scale, over the
+        depths where the splats' centres and the surface's possible hits overlap; None
+        where every surface lies behind every splat (nothing to hold out: the plain
+        programs run). On the compute path this gathers each batch's least centre depth
+        into the minima buffer (the cells pass closes by them) and reads back the range."""
         if self.sat_map is None:
-            front = np.asarray(front_depths, np.float32)[:visible][::-1]
-            least = [front[first:first + count].min() for first, count in plan]
-            held["z_next"] = [float(v) for v in np.minimum.accumulate(least[::-1])[::-1]]
-            return held
-        cs, buf = self.minima
-        buf.write(np.full(MAX_BREAKS + 1, 0xFFFFFFFF, np.uint32).tobytes())
-        buf.bind_to_storage_buffer(B_MINIMA)
-        cs["u_visible"].value = visible
-        for slot, (first, count) in enumerate(plan):
-            cs["u_first"].value = first
-            cs["u_count"].value = count
-            cs["u_slot"].value = slot
-            cs.run(-(-count // MINIMA_SPAN))
-        self.ctx.memory_barrier()
-        return held
+            front = np.asarray(front_depths, np.float32)[:visible]
+            near, far = float(front.min()), float(front.max())
+        else:
+            cs, buf = self.minima
+            init = np.full(MAX_SLOT + 1, 0xFFFFFFFF, np.uint32)
+            init[MAX_SLOT] = 0
+            buf.write(init.tobytes())
+            buf.bind_to_storage_buffer(B_MINIMA)
+            cs["u_visible"].value = visible
+            cs["u_max_slot"].value = MAX_SLOT
+            for slot, (first, count) in enumerate(plan):
+                cs["u_first"].value = first
+                cs["u_count"].value = count
+                cs["u_slot"].value = slot
+                cs.run(-(-count // MINIMA_SPAN))
+            self.ctx.memory_barrier()
+            got = from_ordered_bits(np.frombuffer(buf.read(), np.uint32))
+            near, far = float(got[:len(plan)].min()), float(got[MAX_SLOT])
+        return depth_encoding(near, far, *surface.bounds)
+
+    def _resolve(self, t: dict, w: int, h: int, texture, enc):
+        """The surface map into the tile's depth buffer, encoded (gl_holdout_resolve.frag)."""
+        if "depth" not in t:  # compute path: a depth buffer only for holdout frames
+            ctx = self.ctx
+            t["depth"] = depth = ctx.depth_renderbuffer((w, h))
+            t["plain_held"] = ctx.framebuffer([t["colour"]], depth)
+            t["with_z_held"] = ctx.framebuffer([t["colour"], t["z"]], depth)
+            t["resolve"] = ctx.framebuffer([], depth)
+            t["plain_held"].depth_mask = t["with_z_held"].depth_mask = False
+            t["with_z_held"].color_mask = ((True, True, True, True), (True, False, False, True))
+        fbo = t["resolve"] if "resolve" in t else t["mark"]
+        fbo.use()
+        fbo.viewport = (0, 0, w, h)
+        ctx = self.ctx
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "1"  # always
+        texture.use(HOLDOUT_UNIT)
+        set_uniform(self.resolve, "u_holdout", HOLDOUT_UNIT)
+        set_uniform(self.resolve, "u_holdout_enc", enc)
+        self.vaos[self.resolve].render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.DEPTH_TEST)
+        if self.sat_map is not None:  # the farthest surface per cell, for the cells pass
+            cols, rows = -(-w // 4), t["levels"][0][2]
+            if "cell_max" not in t:
+                t["cell_max"] = ctx.buffer(reserve=4 * cols * rows)
+            t["cell_max"].bind_to_storage_buffer(B_CELL_MAX)
+            cs = self.cell_max
+            set_uniform(cs, "u_holdout", HOLDOUT_UNIT)
+            set_uniform(cs, "u_size", (cols, rows))
+            set_uniform(cs, "u_tile_size", (w, h))
+            cs.run((cols + 7) // 8, (rows + 7) // 8)
+            ctx.memory_barrier()
 
     def _break(self, t: dict, w: int, h: int, batch: int = 0):
-        """Before batch `batch` (> 0, or any with a holdout): find the pixels closed so far
-        (saturated, or held out for every splat to come) for the next batches' culling."""
+        """Before batch `batch` (> 0): find the pixels closed so far (saturated, or with a
+        holdout on the compute path, hidden from every splat to come) for the next
+        batches' culling."""
         if self.sat_map is not None:
             self._build_map(t, w, h, batch)
         else:
@@ -294,8 +365,8 @@ class Compositor:
         return rgba, depth.astype(np.float32)
 
     def _mark(self, t: dict, w: int, h: int, batch: int = 0):
-        """Depth-mark the saturated pixels (T < 1e-4) of the tile so far (with a holdout,
-        and those whose surface hides every splat from batch `batch` on)."""
+        """Depth-mark the saturated pixels (T < 1e-4) of the tile so far (with a holdout
+        at depth 0: the splats' depths are encoded; gl_saturate.frag)."""
         mark = t["mark"]
         mark.use()
         mark.viewport = (0, 0, w, h)
@@ -303,11 +374,6 @@ class Compositor:
         ctx.disable(moderngl.BLEND)
         t["colour"].use(MARK_UNIT)
         self.mark["u_colour"].value = MARK_UNIT
-        if self.held is not None:
-            self.held["texture"].use(HOLDOUT_UNIT)
-            set_uniform(self.mark, "u_holdout", HOLDOUT_UNIT)
-            set_uniform(self.mark, "u_z_next", self.held["z_next"][batch])
-            set_uniform(self.mark, "u_saturate", self.held["saturate"])
         self.vaos[self.mark].render(moderngl.TRIANGLES, vertices=3)
         ctx.enable(moderngl.BLEND)
 
@@ -320,10 +386,9 @@ class Compositor:
         cols, rows = -(-w // 4), t["levels"][0][2]
         held = {}
         if self.held is not None:
-            self.held["texture"].use(HOLDOUT_UNIT)
             self.minima[1].bind_to_storage_buffer(B_MINIMA)
-            held = {"u_holdout": HOLDOUT_UNIT, "u_batch": batch, "u_batches": self.held["batches"],
-                    "u_saturate": self.held["saturate"]}
+            t["cell_max"].bind_to_storage_buffer(B_CELL_MAX)
+            held = {"u_batch": batch, "u_batches": self.held["batches"], "u_saturate": self.held["saturate"]}
         self._map_pass(CELLS, (cols, rows), u_colour=MARK_UNIT, u_tile_size=(w, h), **held)
         below = (0, 1, 1)
         for k, (offset, words, rows) in enumerate(t["levels"]):
@@ -358,7 +423,37 @@ class Compositor:
                 if name != "levels":
                     obj.release()
         programs = [p for pair in self.variants.values() for p in pair]
-        extra = list(self.sat_cells.values())[1:] + list(self.minima or [])
+        extra = list(self.sat_cells.values())[1:] + list(self.minima or []) + [self.resolve, self.cell_max]
         for obj in list(self.vaos.values()) + programs + (self.sat_map or []) + extra:
             if obj is not None:
                 obj.release()
+
+
+def from_ordered_bits(bits: np.ndarray) -> np.ndarray:
+    """gl_holdout_minima.comp's order-preserving uint bits back to float32."""
+    bits = np.asarray(bits, np.uint32)
+    raw = np.where(bits & 0x80000000, bits & 0x7FFFFFFF, ~bits).astype(np.uint32)
+    return raw.view(np.float32)
+
+
+def held_band(enc) -> float:
+    """Depth below a surface within which a splat fragment, though in front of it, may be
+    dropped by a holdout frame's depth test (and no fragment behind it is ever kept):
+    bias plus rounding, under 2^-19 of the encoding, 2.4e-6 of the overlap's depth span."""
+    return 2.0 * HOLDOUT_BIAS / enc[1]
+
+
+def depth_encoding(near: float, far: float, lo: float, hi: float):
+    """(lo, scale) of the linear depth encoding of a holdout frame, or None where the
+    surface cannot hide any splat. near, far: the splats' least and largest centre
+    depths; lo, hi: bounds of the surface's hit depths (gl/holdout.depth_bounds). The
+    overlap [max(near, lo), min(far, hi)] maps to [ENC_BASE, ENC_BASE + ENC_SPAN] of the
+    24-bit depth buffer; depths outside it compare the same way after clamping (a surface
+    nearer than every splat hides them all, one farther than every splat none)."""
+    if not lo <= far:  # every surface behind every splat (or none at all)
+        return None
+    a, b = max(near, lo), min(far, hi)
+    span = b - a
+    if not span > 0.0:  # the surfaces all in front of the splats, or one depth: any scale
+        span = max(far - near, abs(a) * 1e-3, 1e-6)
+    return (float(a), float(ENC_SPAN / span))

@@ -11,7 +11,7 @@ from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
 from .composite import Compositor
 from .fallback import RecordTextures, cpu_records
-from .holdout import HoldoutPass, active
+from .holdout import HoldoutPass, Surface, active
 from .software import gl_flush, is_software
 from .sorting import RadixSorter, cpu_order, sorts_on_gpu
 from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform, slots_per_splat
@@ -159,29 +159,32 @@ class FrameState:
         if options.key_bits not in (16, 32):
             raise ValueError(f"key bits must be 16 or 32, not {options.key_bits}")
         holdout = active(options)
+        surface = Surface(self.holdout, holdout, camera) if holdout is not None else None
         front_depths = None
         if self.compute:
             order, visible, n = self._gpu_prepare(items, camera, options)
         else:
             records, visible = cpu_records(items, camera, options)
             self.record_textures.upload(records, self.stats)
-            self.record_textures.bind(self.compositor.programs_for(holdout is not None)[0])
+            for program in {self.compositor.programs_for(False)[0],
+                            self.compositor.programs_for(surface is not None)[0]}:
+                self.record_textures.bind(program)
             self.stats["cpu_sorts"] += 1
             order, n = None, sum(item.splats.count for item in items)
             front_depths = records[1, :, 2]  # back to front: the draw stage's centre depths
-        rgba, depth = self._composite(camera, visible, options, holdout, front_depths)
+        rgba, depth = self._composite(camera, visible, options, surface, front_depths)
         behind(rgba, options.background)
         self.stats["frames"] += 1
         self.stats["resident_objects"] = self.cache.resident
         self.last = (order, visible, n)
         return RenderOutput(rgba, depth)
 
-    def _composite(self, camera: Camera, visible: int, options: RenderOptions, holdout=None,
+    def _composite(self, camera: Camera, visible: int, options: RenderOptions, surface=None,
                    front_depths=None):
         """The frame's (rgba, depth), tile by tile; a frame of one tile is its arrays.
-        holdout: the frame's Holdout with triangles (gl/holdout.py), or None."""
+        surface: the frame's holdout (gl/holdout.Surface), or None."""
         frame_tiles = list(tiles(camera.width, camera.height))
-        args = (visible, options, camera, holdout, front_depths)
+        args = (visible, options, surface, front_depths)
         if len(frame_tiles) == 1:
             return self._run_tile(frame_tiles[0], *args)
         rgba = np.empty((camera.height, camera.width, 4), np.float32)
@@ -192,12 +195,9 @@ class FrameState:
             rgba[out], depth[out] = self._run_tile(tile, *args)
         return rgba, depth
 
-    def _run_tile(self, tile, visible: int, options: RenderOptions, camera: Camera = None,
-                  holdout=None, front_depths=None):
-        # the surface depth map first (its own target), when there are splats to hide
-        held = self.holdout.render(holdout, camera, tile) if holdout is not None and visible else None
+    def _run_tile(self, tile, visible: int, options: RenderOptions, surface=None, front_depths=None):
         out = self.compositor.run(tile, visible, options.early_termination, self.want_depth,
-                                  options.capped_extent, held, front_depths)
+                                  options.capped_extent, surface, front_depths)
         self.stats["splat_draws"] += self.compositor.splat_draws
         self.stats["saturation_passes"] += self.compositor.breaks
         self.stats["draw_flushes"] += self.compositor.flushes

@@ -8,11 +8,17 @@ the fragment stage casts the pixel-centre ray against it exactly (gl_holdout.fra
 Moeller-Trumbore in float32, camera-relative) and keeps the nearest hit through MIN
 blending: no depth buffer and no non-linear z, the same rays for all three cameras, so
 the map equals core.holdout.holdout_depth up to float32 rounding (tests/test_gl_holdout.py).
+Drawing the triangles themselves instead (GL's coverage, the ray only for the depth)
+was a little faster but left holes: the rasteriser snaps corners to 1/256 pixel, so a
+pixel centre that close to an edge two triangles share may go to the one whose exact
+test then misses it (32 pixels of the 1080p bench frame); over the boxes every
+triangle tests every pixel it may hold, and none differs from the reference's coverage.
 With depth of field it is the pinhole's map, as the reference's.
 
-The draw stage then drops every splat fragment whose centre depth is not in front of
-the map there (gl_splat.frag, SL_HOLDOUT), and early termination closes the cells where
-the surface lies in front of every splat still to come (gl/composite.py).
+The compositor then writes the map into a depth buffer, encoded as the splats' centre
+depths are, and the early depth test drops every splat fragment whose centre is not in
+front of the surface there (gl/composite.py); between batches it closes the cells whose
+surface lies in front of every splat still to come.
 
 Triangles are uploaded once per Holdout.key, relative to their mean (float64 on the
 CPU), so a mesh far from the origin keeps its float32 precision near the camera; the
@@ -37,6 +43,40 @@ def active(options):
     """The frame's Holdout where it has triangles, else None (no holdout work at all)."""
     holdout = getattr(options, "holdout", None)
     return holdout if holdout is not None and holdout.count > 0 else None
+
+
+def depth_bounds(holdout, camera: Camera) -> tuple[float, float]:
+    """(lo, hi) float64 bounds of every depth a pixel-centre ray can hit the triangles at
+    (near < depth <= far), from their corners; (inf, -inf) where none can be hit.
+    Perspective and orthographic: depth is linear over a triangle, so it lies between
+    its corners'. Equirect (distance): at most the farthest corner's, at least the
+    nearest corner's minus the longest edge."""
+    m = np.asarray(camera.world_to_camera, np.float64)
+    tri = holdout.triangles @ m[:3, :3].T + m[:3, 3]
+    if camera.equirect:
+        d = np.linalg.norm(tri, axis=2)
+        edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(1)
+        low, high = d.min(1) - edges, d.max(1)
+    else:
+        d = -tri[..., 2]
+        low, high = d.min(1), d.max(1)
+    live = (high > camera.near) & (low <= camera.far)
+    if not live.any():
+        return np.inf, -np.inf
+    return (float(max(low[live].min(), camera.near)), float(min(high[live].max(), camera.far)))
+
+
+class Surface:
+    """A frame's holdout for the compositor: its depth bounds (depth_bounds) and its
+    map of a tile, drawn when the compositor asks (not at all where every surface lies
+    behind every splat)."""
+
+    def __init__(self, holdout_pass, holdout, camera: Camera):
+        self.bounds = depth_bounds(holdout, camera)
+        self._pass, self._holdout, self._camera = holdout_pass, holdout, camera
+
+    def draw(self, tile):
+        return self._pass.render(self._holdout, self._camera, tile)
 
 
 def camera_kind(camera: Camera) -> int:

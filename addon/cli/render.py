@@ -64,7 +64,9 @@ def configure(parser):
     parser.add_argument("--engine-option", action="append", default=[], metavar="NAME=VALUE",
                         help="a Splatline render setting, e.g. key_bits=16, gpu_sort=off, "
                              "antialiased=on, renderer=REFERENCE|GPU_MODULE|OFFSCREEN|AUTO, "
-                             "motion_blur_samples=8 (with the .blend's motion blur on) (repeatable)")
+                             "motion_blur_samples=8 (with the .blend's motion blur on), "
+                             "meshes=DRAW|HOLDOUT|IGNORE, mesh_engine=WORKBENCH|EEVEE|CYCLES "
+                             "(repeatable)")
     parser.add_argument("--keep-stamp", action="store_true",
                         help="keep the render date, time, frame and host in the files' metadata (not reproducible)")
 
@@ -91,9 +93,10 @@ def set_engine_option(settings, text: str) -> None:
     """NAME=VALUE onto the RenderSettings group, typed by its RNA definition."""
     name, sep, value = text.partition("=")
     name, value = name.strip(), value.strip()
-    props = settings.bl_rna.properties
-    if not sep or name not in props or name == "rna_type":
-        known = ", ".join(p.identifier for p in props if p.identifier != "rna_type")
+    props = {p.identifier: p for p in settings.bl_rna.properties
+             if p.identifier != "rna_type" and p.type != "POINTER"}  # mesh_scene: Splatline's own
+    if not sep or name not in props:
+        known = ", ".join(props)
         raise UserError(f"--engine-option {text!r}: expected NAME=VALUE with NAME one of {known}")
     prop = props[name]
     if prop.type == "BOOLEAN":

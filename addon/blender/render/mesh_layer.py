@@ -82,6 +82,15 @@ def _layer_objects(layer_collection, flags, out):
         _layer_objects(child, flags, out)
 
 
+def _collection_objects(collection, out):
+    if collection.hide_render:
+        return
+    for obj in collection.objects:
+        out.setdefault(obj, (False, False))
+    for child in collection.children:
+        _collection_objects(child, out)
+
+
 def _holds_splats(collection, depth=0) -> bool:
     if depth > 32:
         return True
@@ -101,8 +110,12 @@ def drawn_objects(scene) -> dict:
     view layers of scene."""
     found = {}
     for layer in scene.view_layers:
-        if layer.use:
+        if not layer.use:
+            continue
+        if layer.layer_collection is not None:
             _layer_objects(layer.layer_collection, (False, False), found)
+        else:  # a new scene's layer, never synced (5.2+): no exclusions can be set on it yet
+            _collection_objects(scene.collection, found)
     out = {}
     for obj, flags in found.items():
         if COMPANION_MARK in obj.keys() or is_splat_object(obj):

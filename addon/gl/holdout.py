@@ -46,21 +46,34 @@ def active(options):
 
 
 def depth_bounds(holdout, camera: Camera) -> tuple[float, float]:
-    """(lo, hi) float64 bounds of every depth a pixel-centre ray can hit the triangles at
-    (near < depth <= far), from their corners; (inf, -inf) where none can be hit.
-    Perspective and orthographic: depth is linear over a triangle, so it lies between
-    its corners'. Equirect (distance): at most the farthest corner's, at least the
-    nearest corner's minus the longest edge."""
+    """(lo, hi) float64 bounds of every depth at which a pixel-centre ray can hit the
+    triangles (near < depth <= far), over the triangles that can reach the frame at all;
+    (inf, -inf) where none can (then the compositor runs the plain programs: a mesh out of
+    view costs nothing). Perspective and orthographic: depth is linear over a triangle,
+    so it lies between its corners'; a triangle whose corners all lie in front of the
+    clip start projects inside their screen box (one reaching behind the camera counts
+    as in view). Equirect (distance): at most the farthest corner's, at least the nearest
+    corner's minus the longest edge; every triangle counts as in view."""
     m = np.asarray(camera.world_to_camera, np.float64)
     tri = holdout.triangles @ m[:3, :3].T + m[:3, 3]
     if camera.equirect:
         d = np.linalg.norm(tri, axis=2)
         edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(1)
         low, high = d.min(1) - edges, d.max(1)
+        seen = np.ones(len(tri), bool)
     else:
         d = -tri[..., 2]
         low, high = d.min(1), d.max(1)
-    live = (high > camera.near) & (low <= camera.far)
+        with np.errstate(all="ignore"):
+            if camera.ortho:
+                u, v = camera.cx + camera.fx * tri[..., 0], camera.cy - camera.fy * tri[..., 1]
+            else:
+                u = camera.cx + camera.fx * tri[..., 0] / d
+                v = camera.cy - camera.fy * tri[..., 1] / d
+            inside = ((u.max(1) >= -1.0) & (u.min(1) <= camera.width + 1.0)
+                      & (v.max(1) >= -1.0) & (v.min(1) <= camera.height + 1.0))
+        seen = inside if camera.ortho else inside | (low <= camera.near)
+    live = seen & (high > camera.near) & (low <= camera.far)
     if not live.any():
         return np.inf, -np.inf
     return (float(max(low[live].min(), camera.near)), float(min(high[live].max(), camera.far)))

@@ -29,9 +29,10 @@ its centre depth, encoded alike and raised by a bias above the encodings' roundi
 centre is not in front of the surface there, before its shader runs, and never keeps one
 behind it; a fragment within 2.4e-6 of that depth span in front of the surface may be
 dropped with them (held_band: 4.3 um on the bench frame, 1.85 m of overlap). A dropped
-fragment adds no alpha, so it never counts toward saturation. A per-fragment read of
-the map instead cost 1.4x the frame with no surface in view (llvmpipe: a gather per lane,
-with or without a branch around it), the depth test 1.10-1.16x.
+fragment adds no alpha, so it never counts toward saturation. With a surface among the
+splats' depths that covers no pixel (every cost, nothing hidden), a per-fragment read of
+the map instead cost 1.4x the bench frame's time (llvmpipe: a gather per lane, with or
+without a branch around it), the depth test 1.10-1.16x.
 On the compute path the batches also cull: each batch's smallest centre depth is gathered
 first (gl_holdout_minima.comp, with the frame's largest, the encoding's range), and
 before each later batch a cell is closed too where its surface lies at or in front of

@@ -48,8 +48,8 @@ class OffscreenRenderer:
     stats counts work across frames: frames, geometry_uploads (objects whose splats
     were sent), sh_uploads, bytes_uploaded, gpu_sorts, cpu_sorts, splat_draws (batches of
     splats drawn), saturation_passes (early-termination passes between them: saturation
-    map builds, or on GL 3.3 depth marks; with a holdout one more before the first
-    batch), draw_flushes (glFlush calls between a batch's chunks, software GL only),
+    map builds, or on GL 3.3 depth marks; with a holdout on the compute path the batches
+    run even with early termination off), draw_flushes (glFlush calls between a batch's chunks, software GL only),
     holdout_uploads (holdouts whose triangles were sent: once per Holdout.key);
     resident_objects is how many objects hold GPU buffers after the last frame.
 

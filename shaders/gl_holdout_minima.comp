@@ -1,10 +1,11 @@
 // Offscreen renderer, holdout with batches (GL 4.3): the smallest centre depth (rec1.z,
 // the value the draw stage tests against the holdout) of one front-to-back batch, into
 // minima[u_slot] as order-preserving bits, and the largest of the frame (the depth
-// encoding's range, gl/composite.py). A batch's splats all lie at or behind it, so
-// between batches every pixel whose surface is nearer than the minimum of the batches
-// still to come is closed for them (gl_saturation_map.comp), exactly: their fragments
-// there would all be dropped. Each invocation takes SPAN ranks, one atomic each.
+// encoding's range, gl/composite.py). A batch's splats all lie at or behind its minimum,
+// so between batches every cell whose farthest surface lies at or in front of the least
+// minimum of the batches still to come is closed for them (gl_saturation_map.comp),
+// exactly: their fragments there would all be dropped. Each invocation takes SPAN ranks,
+// one atomic each.
 #include_records
 
 layout(local_size_x = 64) in;

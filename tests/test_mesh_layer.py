@@ -244,3 +244,21 @@ def test_world_is_drawn_behind_meshes_and_splats(guitar, tmp_path):
     nothing &= splat[..., 3] == 0.0  # the splat layer is transparent there (no world in it)
     assert nothing.sum() > 2000
     np.testing.assert_allclose(final[nothing][:, :3], np.broadcast_to(grey, (nothing.sum(), 3)), atol=2e-3)
+
+
+def test_cli_render_of_the_scene_matches_the_reference(guitar, tmp_path):
+    """`python -m addon render SCENE.blend`: the same splat layer (>= 45 dB against the
+    reference with the holdout) and the same final frame as bpy.ops.render.render."""
+    from test_mesh_layer_frames import _cli, _run_all
+
+    bpy, scene, hs, _objects, parts = guitar
+    blend = tmp_path / "scene.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    frame = scene.frame_current
+    _run_all([_cli(blend, "--out", tmp_path / "cli", "--format", "EXR", "--frames", f"{frame}-{frame}")])
+    (name,) = [n for n in (tmp_path / "cli").iterdir() if n.suffix == ".exr"]
+    cli = read_exr_parts(name)
+    held, _camera = reference(bpy, scene, hs.holdout)
+    got = psnr(to_display(cli["ViewLayer.Combined"]), held.rgba)
+    assert got >= MIN_PSNR, f"CLI splat layer vs the held-out reference: {got:.1f} dB"
+    np.testing.assert_allclose(cli["Composite.Combined"], parts["Composite.Combined"], atol=1e-3)

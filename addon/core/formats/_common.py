@@ -1,14 +1,12 @@
 """Helpers shared by the readers: opening files safely, bounding sizes, activations."""
 from __future__ import annotations
 
-import contextlib
 import json
 import os
-import secrets
-import stat
 
 import numpy as np
 
+from ..atomic import write_group
 from ..errors import SplatFormatError
 from ..quaternion import normalize_quats_  # noqa: F401  (the readers import it from here)
 
@@ -40,50 +38,23 @@ def read_bytes(path, limit: int) -> bytes:
 
 
 def write_file(path, *parts) -> None:
-    """Write bytes-like parts (numpy arrays included) to path, atomically: into a temporary
-    file beside the target, renamed over it only once every byte and the close succeeded.
-    Any failure raises SplatFormatError naming the file and removes the temporary file, so
-    a full disk or a file-size limit never leaves a truncated target (`convert x.ply x.ply`
-    used to destroy its input that way). Not fsync'd: the rename protects against failed
-    writes and crashes of this process, which is what users hit; power loss is the OS's.
+    """Write bytes-like parts (numpy arrays included) to path atomically (core/atomic.py:
+    a fsync'd temporary beside the target, renamed over it once every byte is written).
+    Any failure raises SplatFormatError naming the file and removes the temporary, so a
+    full disk or a killed process never leaves a truncated target (`convert x.ply x.ply`
+    used to destroy its input that way).
 
     Not ndarray.tofile: it writes through a duplicated descriptor and drops the error
     of its close, so a disk that fills up left a truncated file and no error."""
+    write_files([(path, parts)])
+
+
+def write_files(files) -> None:
+    """Several files [(path, parts), ...] staged whole, then renamed in order (atomic.write_group)."""
     try:
-        _write_atomic(os.path.realpath(path), parts)
+        write_group(files)
     except OSError as exc:
-        raise SplatFormatError(path, f"cannot write: {exc.strerror or exc}") from None
-
-
-def _write_parts(f, parts) -> None:
-    for part in parts:
-        f.write(part.view(np.uint8).data if isinstance(part, np.ndarray) else part)
-
-
-def _write_atomic(target: str, parts) -> None:
-    """target is the symlink-resolved path, so a link keeps pointing at the new file."""
-    try:
-        st = os.stat(target)
-    except FileNotFoundError:
-        st = None
-    if st is not None and not stat.S_ISREG(st.st_mode):
-        with open(target, "wb") as f:  # a device or pipe (/dev/stdout): cannot be renamed over
-            _write_parts(f, parts)
-        return
-    folder, name = os.path.split(target)
-    tmp = os.path.join(folder, f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-    try:
-        # O_EXCL: never follow a planted link; mode 0666 lets the umask apply as for open()
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-        with open(fd, "wb") as f:
-            _write_parts(f, parts)
-        if st is not None:
-            os.chmod(tmp, stat.S_IMODE(st.st_mode))  # overwriting keeps the file's permissions
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+        raise SplatFormatError(exc.filename or files[0][0], f"cannot write: {exc.strerror or exc}") from None
 
 
 # What decoding costs per splat at its peak, measured with tracemalloc on testdata/guitar.*

@@ -20,7 +20,6 @@ import io
 import json
 import math
 import os
-import tempfile
 import zipfile
 
 import numpy as np
@@ -28,7 +27,8 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..quantize import codebook_1d, kmeans, nearest_1d
 from ..splats import SplatSet
-from ._common import write_file
+from ..atomic import sigterm_cleans_up, temporary_folder
+from ._common import write_file, write_files
 from .compressed_ply_write import _morton_order
 from .webp import write_rgba
 
@@ -136,25 +136,43 @@ def _entry(name) -> zipfile.ZipInfo:
     return zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
 
 
+def _webp_files(images: dict, folder: str) -> dict:
+    """{name: lossless WebP bytes}: OpenImageIO writes files, not memory, so each image is
+    encoded into the private scratch folder and read back."""
+    out = {}
+    for name, img in images.items():
+        local = os.path.join(folder, name)
+        write_rgba(local, img)
+        with open(local, "rb") as f:
+            out[name] = f.read()
+    return out
+
+
 def write_sog(path, splats: SplatSet, iterations: int = 10, seed: int = 0) -> None:
-    """`.sog` (or any name but meta.json): one zip; `meta.json`: the images beside it."""
+    """`.sog` (or any name but meta.json): one zip; `meta.json`: the images beside it.
+
+    Both are atomic (core/atomic.py): the bundle is one renamed file; unbundled, every
+    image and meta.json is written whole under a temporary name beside its target, then
+    each is renamed in, meta.json last. A failure or kill before the renames leaves the
+    old SOG as it was; only in the renames' window (microseconds) could a reader see new
+    images beside the old meta.json."""
     if splats.count == 0:
         raise SplatFormatError(path, "SOG cannot hold 0 splats (its images would be empty)")
     meta, images = encode_sog(splats, iterations, seed)
     meta_bytes = json.dumps(meta, separators=(",", ":")).encode()
-    if os.path.basename(os.fspath(path)).lower() == "meta.json":
+    unbundled = os.path.basename(os.fspath(path)).lower() == "meta.json"
+    with sigterm_cleans_up(), temporary_folder("splatline-sog-") as tmp:
+        webps = _webp_files(images, tmp)
+    if unbundled:
         folder = os.path.dirname(os.path.abspath(path))
-        for name, img in images.items():
-            write_rgba(os.path.join(folder, name), img)
-        write_file(path, meta_bytes)
+        if not os.path.isdir(folder):
+            raise SplatFormatError(path, "cannot write: its folder does not exist")
+        write_files([(os.path.join(folder, name), (data,)) for name, data in webps.items()]
+                    + [(path, (meta_bytes,))])
         return
     buf = io.BytesIO()
-    with tempfile.TemporaryDirectory(prefix="splatline-sog-") as tmp, \
-            zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as z:  # WebP is compressed already
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as z:  # WebP is compressed already
         z.writestr(_entry("meta.json"), meta_bytes, zipfile.ZIP_DEFLATED)
-        for name, img in images.items():
-            local = os.path.join(tmp, name)
-            write_rgba(local, img)  # OpenImageIO writes files, not memory
-            with open(local, "rb") as f:
-                z.writestr(_entry(name), f.read())
+        for name, data in webps.items():
+            z.writestr(_entry(name), data)
     write_file(path, buf.getvalue())

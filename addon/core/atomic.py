@@ -1,0 +1,201 @@
+"""Atomic file writes: the one helper behind every writer (formats, SOG bundles, frames).
+
+A file is written under a temporary name in its own folder (`.NAME.PID.HEX.tmp`: same
+file system, so the rename cannot copy), flushed and fsync'd, then renamed over the target
+with os.replace. A reader, or a process killed at any point, sees the old file or the new
+one, never a mix or a cut file.
+
+Temporaries are removed when the write fails (any exception, KeyboardInterrupt included)
+and when the process ends by a signal it can catch: every live temporary is registered
+here, and while a write runs in the main thread of a process whose SIGTERM is still the
+default, SIGTERM removes them and then terminates the process by SIGTERM as before
+(the command line installs its own SIGTERM handler instead: cli/render_job.py). kill -9
+cannot be caught: it may leave a `.NAME.PID.HEX.tmp` beside the target, never a damaged
+target.
+
+Several files (an unbundled SOG: its images and meta.json) go through `write_group`: every
+file is first written whole as a temporary beside its target, then each is renamed in,
+meta.json last. The renames take microseconds; only in that window could a reader (or a
+kill -9) see some new images beside the old meta.json. A failure before the renames
+leaves every old file as it was.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import secrets
+import shutil
+import signal
+import stat
+import tempfile
+import threading
+
+import numpy as np
+
+_LIVE: set[str] = set()
+_LOCK = threading.Lock()
+
+
+def temporary_name(target: str) -> str:
+    folder, name = os.path.split(target)
+    return os.path.join(folder, f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+
+
+def remove_temporaries() -> None:
+    """Remove every temporary this process still has (a signal handler's clean-up)."""
+    with _LOCK:
+        live = list(_LIVE)
+        _LIVE.clear()
+    for path in live:
+        _remove(path)
+
+
+def _remove(path: str) -> None:
+    with contextlib.suppress(OSError):
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            os.unlink(path)
+
+
+def _register(path: str) -> None:
+    with _LOCK:
+        _LIVE.add(path)
+
+
+def _forget(path: str, remove: bool) -> None:
+    with _LOCK:
+        _LIVE.discard(path)
+    if remove:
+        _remove(path)
+
+
+def _on_sigterm(signum, frame):
+    remove_temporaries()
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    os.kill(os.getpid(), signal.SIGTERM)  # end as SIGTERM would have, without the temporaries
+
+
+@contextlib.contextmanager
+def sigterm_cleans_up():
+    """While the block runs, SIGTERM removes the live temporaries before ending the process:
+    only in the main thread, and only over the default handler (a program's own stays)."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        if signal.getsignal(signal.SIGTERM) is _on_sigterm:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+@contextlib.contextmanager
+def temporary_folder(prefix: str = "splatline-"):
+    """A private scratch folder (tempfile.mkdtemp), removed at the end of the block, on any
+    exception and, inside sigterm_cleans_up, on SIGTERM."""
+    folder = tempfile.mkdtemp(prefix=prefix)
+    _register(folder)
+    try:
+        yield folder
+    finally:
+        _forget(folder, remove=True)
+
+
+def _write_parts(f, parts) -> None:
+    for part in parts:
+        f.write(part.view(np.uint8).data if isinstance(part, np.ndarray) else part)
+
+
+def _stat(target: str):
+    try:
+        return os.stat(target)
+    except FileNotFoundError:
+        return None
+
+
+def stage(target: str, parts) -> str:
+    """Write parts whole into a new registered temporary beside target, fsync'd; its path.
+    target is the symlink-resolved path, so a link keeps pointing at the new file."""
+    tmp = temporary_name(target)
+    _register(tmp)
+    try:
+        # O_EXCL: never follow a planted link; mode 0666 lets the umask apply as for open()
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+        with open(fd, "wb") as f:
+            _write_parts(f, parts)
+            f.flush()
+            os.fsync(f.fileno())
+        st = _stat(target)
+        if st is not None and stat.S_ISREG(st.st_mode):
+            os.chmod(tmp, stat.S_IMODE(st.st_mode))  # overwriting keeps the file's permissions
+    except BaseException:
+        _forget(tmp, remove=True)
+        raise
+    return tmp
+
+
+def commit(tmp: str, target: str) -> None:
+    """Rename a staged temporary over its target (the temporary is gone either way)."""
+    try:
+        os.replace(tmp, target)
+    except BaseException:
+        _forget(tmp, remove=True)
+        raise
+    _forget(tmp, remove=False)
+
+
+def _sync_folder(folder: str) -> None:
+    with contextlib.suppress(OSError, AttributeError):
+        fd = os.open(folder or ".", os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+@contextlib.contextmanager
+def _naming(path):
+    """An OSError names the target the caller gave, not the temporary."""
+    try:
+        yield
+    except OSError as exc:
+        exc.filename, exc.filename2 = os.fspath(path), None
+        raise
+
+
+def write_atomic(path, parts) -> None:
+    """Write bytes-like parts (numpy arrays included) to path atomically. OSError as raised."""
+    write_group([(path, parts)])
+
+
+def write_group(files) -> None:
+    """Write several files [(path, parts), ...]: every one staged whole first, then renamed
+    in order (put the file that names the others, meta.json, last). OSError as raised; a
+    failure before the renames leaves every target as it was and no temporaries."""
+    targets = [os.path.realpath(os.fspath(p)) for p, _ in files]
+    staged = []
+    with sigterm_cleans_up():
+        try:
+            for target, (path, parts) in zip(targets, files):
+                st = _stat(target)
+                if st is not None and not stat.S_ISREG(st.st_mode):
+                    staged.append(None)  # a device or pipe (/dev/stdout): cannot be renamed over
+                    continue
+                with _naming(path):
+                    staged.append(stage(target, parts))
+            for target, tmp, (path, parts) in zip(targets, staged, files):
+                with _naming(path):
+                    if tmp is None:
+                        with open(target, "wb") as f:
+                            _write_parts(f, parts)
+                    else:
+                        commit(tmp, target)
+        finally:
+            for tmp in staged:
+                if tmp is not None:
+                    _forget(tmp, remove=os.path.lexists(tmp))
+        for folder in {os.path.dirname(t) for t, s in zip(targets, staged) if s is not None}:
+            _sync_folder(folder)

@@ -58,6 +58,24 @@ def _remove(path: str) -> None:
             os.unlink(path)
 
 
+def register_temporary(path: str) -> None:
+    """A temporary another writer makes (Blender's frame writer): removed as ours are."""
+    _register(os.path.abspath(path))
+
+
+def forget_temporary(path: str, remove: bool = False) -> None:
+    _forget(os.path.abspath(path), remove)
+
+
+def sync_file(path: str) -> None:
+    """fsync a file written by someone else, before it is renamed into place."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def _register(path: str) -> None:
     with _LOCK:
         _LIVE.add(path)

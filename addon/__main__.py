@@ -11,7 +11,8 @@ import importlib
 import os
 import sys
 
-from .cli import UserError
+from .cli import UsageError, UserError
+from .core import budget
 from .core.errors import SplatFormatError
 
 COMMANDS = {
@@ -28,8 +29,18 @@ def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     for name, help_text in COMMANDS.items():
         module = importlib.import_module(f".cli.{name}", __package__)
-        module.configure(sub.add_parser(name, help=help_text, description=help_text))
+        module.configure(command := sub.add_parser(name, help=help_text, description=help_text))
+        command.add_argument("--max-memory", type=_size, metavar="SIZE",
+                             help="memory budget, e.g. 1.5G: a file or option that would need more is "
+                                  "refused before allocating (default: available memory with headroom)")
     return parser
+
+
+def _size(text: str) -> int:
+    try:
+        return budget.parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _name(filename) -> str:
@@ -46,8 +57,12 @@ def _os_error_text(exc: OSError) -> str:
 def main(argv=None, prog: str = "python -m addon") -> int:
     args = _parser(prog).parse_args(argv)
     module = importlib.import_module(f".cli.{args.command}", __package__)
+    budget.set_max_memory(args.max_memory)
     try:
         return int(module.run(args) or 0)
+    except UsageError as exc:  # an option out of range: usage, as argparse's own errors
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     except (SplatFormatError, UserError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from _spz_encode import encode
+from addon.core import budget
 from addon.core.errors import SplatFormatError
-from addon.core.formats import _common, read, read_with_report, write
+from addon.core.formats import read, read_with_report, write
 from addon.core.formats.ply import write_ply
 from addon.core.formats.splat import RECORD
 from addon.core.formats.synth import random_splats
@@ -185,7 +186,7 @@ def test_splat_budget_refuses_before_decompressing(bomb):
 
 
 def test_splat_budget_defaults_to_available_memory(bomb, monkeypatch):
-    monkeypatch.setattr(_common, "available_memory", lambda: 1 << 30)
+    monkeypatch.setattr(budget, "available_memory", lambda: 1 << 30)
     msg = fails(bomb, "20000000", "memory")
     assert "budget" in msg
 

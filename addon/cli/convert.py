@@ -16,6 +16,7 @@ from ..core.validate import POLICIES, check_values
 from ..core.edit import merge
 from . import UserError, edits
 from .capture_scene import is_blend
+from .writable import check_output_file
 
 
 def configure(parser):
@@ -99,6 +100,7 @@ def run(args) -> int:
     fmt = format_for_output(args.output)  # fail on a bad output name or flag before reading
     edits.check(args)
     _check_inputs(args)
+    check_output_file(args.output, f"the {fmt} output")
     loaded = [item for path in args.input for item in _read(args, path)]
     splats = merge([s for s, _ in loaded]) if len(loaded) > 1 else loaded[0][0]
     total = sum(r.count_in_file for _, r in loaded)

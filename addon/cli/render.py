@@ -26,14 +26,23 @@ import re
 import statistics
 import time
 
-from . import UserError
+from . import UsageError, UserError
 from .capture_scene import CAMERA_HELP, is_blend
 from .render_job import render_animation
+from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
+from ..core import budget
 
 FORMATS = ("EXR", "PNG", "MP4")
 _BOOL = {"1": True, "true": True, "on": True, "yes": True,
          "0": False, "false": False, "off": False, "no": False}
+
+
+# Blender's own limits (RNA hard_min/hard_max of Scene.frame_start/frame_end and
+# RenderSettings.resolution_x/y, the same on 4.5-5.3; tests/test_one_line_errors.py checks
+# them against RNA): a value outside is refused, never clamped.
+MAX_FRAME = 1048574
+MIN_RESOLUTION, MAX_RESOLUTION = 4, 65536
 
 
 # Metadata fields that differ between runs of the same frames (frame: its zero padding
@@ -79,6 +88,8 @@ def parse_frames(text: str) -> tuple[int, int]:
     end = int(match.group(2)) if match.group(2) is not None else start
     if end < start:
         raise UserError(f"--frames {text!r}: the range ends before it starts")
+    if start < 0 or end > MAX_FRAME:
+        raise UsageError(f"--frames {text.strip()}: frames must lie in 0-{MAX_FRAME} (Blender's limit)")
     return start, end
 
 
@@ -86,7 +97,18 @@ def parse_resolution(text: str) -> tuple[int, int]:
     match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
     if match is None or int(match.group(1)) < 1 or int(match.group(2)) < 1:
         raise UserError(f"--resolution {text!r}: expected WxH, e.g. 1920x1080")
-    return int(match.group(1)), int(match.group(2))
+    width, height = int(match.group(1)), int(match.group(2))
+    if not (MIN_RESOLUTION <= width <= MAX_RESOLUTION and MIN_RESOLUTION <= height <= MAX_RESOLUTION):
+        raise UsageError(f"--resolution {text.strip()}: width and height must lie in "
+                         f"{MIN_RESOLUTION}-{MAX_RESOLUTION} (Blender's limit)")
+    return width, height
+
+
+def check_frame_memory(what: str, width: int, height: int) -> None:
+    """The memory budget on the frame buffers of a width x height render (core/budget.py)."""
+    budget.check(what, budget.frame_bytes(width, height), "--max-memory",
+                 f"{width}x{height} frame buffers: RGBA and depth, float32, "
+                 f"{budget.FRAME_COPIES} copies")
 
 
 def set_engine_option(settings, text: str) -> None:
@@ -169,6 +191,10 @@ def _prepare(bpy, args):
         scene.render.filepath = os.path.join(os.path.abspath(args.out), "frame_####")
     if media_type(scene.render.image_settings) == "VIDEO":
         _check_video_size(scene)
+    r = scene.render
+    check_frame_memory(f"--resolution {args.resolution.strip()}" if args.resolution else
+                       f"{args.blend}: its resolution", r.resolution_x * r.resolution_percentage // 100,
+                       r.resolution_y * r.resolution_percentage // 100)
     if not args.keep_stamp:
         for field in UNREPRODUCIBLE_STAMPS:
             setattr(scene.render, field, False)
@@ -196,9 +222,9 @@ def _check_args(args) -> None:
     if args.frames:
         parse_frames(args.frames)
     if args.resolution:
-        parse_resolution(args.resolution)
-    if args.step is not None and args.step < 1:
-        raise UserError(f"--step {args.step}: must be at least 1")
+        check_frame_memory(f"--resolution {args.resolution.strip()}", *parse_resolution(args.resolution))
+    if args.step is not None and not 1 <= args.step <= MAX_FRAME:
+        raise UsageError(f"--step {args.step}: must lie in 1-{MAX_FRAME}")
     if args.camera is not None and is_blend(args.blend):
         raise UserError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
 
@@ -211,6 +237,7 @@ def _check_out_creatable(out) -> None:
         parent = os.path.dirname(parent)
     if not os.path.isdir(parent):
         raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), out)
+    check_folder(parent, "frames")
 
 
 def _open_scene(args):
@@ -235,8 +262,8 @@ def _open_scene(args):
 def run(args) -> int:
     _check_args(args)
     bpy = _open_scene(args)
-    os.makedirs(args.out, exist_ok=True)  # after the input is known good: nothing half-made
     scene = _prepare(bpy, args)
+    os.makedirs(args.out, exist_ok=True)  # after the input and options are known good: nothing half-made
     total = len(range(scene.frame_start, scene.frame_end + 1, scene.frame_step))
     print(f"rendering {total} frame(s) {scene.frame_start}-{scene.frame_end} of {args.blend} "
           f"at {scene.render.resolution_x}x{scene.render.resolution_y} "

@@ -7,6 +7,7 @@ import os
 import numpy as np
 
 from ..atomic import write_group
+from .. import budget
 from ..errors import SplatFormatError
 from ..quaternion import normalize_quats_  # noqa: F401  (the readers import it from here)
 
@@ -59,46 +60,32 @@ def write_files(files) -> None:
 
 # What decoding costs per splat at its peak, measured with tracemalloc on testdata/guitar.*
 # (degree 0: 110 B/splat for .ply, up to 245 for .spz), plus the higher SH: 4 bytes per
-# float32 kept and about as much again in decode temporaries. Used for the default budget.
+# float32 kept and about as much again in decode temporaries. The memory budget's estimate.
 BASE_BYTES_PER_SPLAT = 256
 SH_BYTES_PER_COEFFICIENT = 8
 
 
-def available_memory() -> int | None:
-    """Bytes the system could give this process now: MemAvailable on Linux, free physical
-    pages on other POSIX systems; None where neither is known (then no default budget)."""
-    try:
-        with open("/proc/meminfo", "rb") as f:
-            for line in f:
-                if line.startswith(b"MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):
-        return None
+def splat_bytes(count: int, rest_floats: int) -> int:
+    """What decoding `count` splats with `rest_floats` higher-SH floats each costs at its peak."""
+    return int(count) * (BASE_BYTES_PER_SPLAT + SH_BYTES_PER_COEFFICIENT * int(rest_floats))
 
 
-def check_budget(path, count: int, rest_floats: int, max_splats=None) -> None:
+def check_budget(path, count: int, rest_floats: int, max_splats=None, copies: int = 1) -> None:
     """Refuse a file claiming more splats than the budget, before anything is decompressed
     or allocated from the claim: a 12 KB .spz can legally expand to 20M splats (4 GB).
-    max_splats None: the budget is what fits in available memory; rest_floats is the
-    number of higher-SH floats per splat (3 * coefficients)."""
+    max_splats given: that many splats at most (it overrides the memory budget); None: the
+    memory budget (core/budget.py: --max-memory, else available memory with headroom).
+    rest_floats is the number of higher-SH floats per splat (3 * coefficients); copies, how
+    many times the reader holds the splats at once (a glTF's primitives and their merge)."""
     if max_splats is not None:
         if count > max_splats:
             raise SplatFormatError(path, f"holds {count} splats, more than the splat budget of "
                                          f"{max_splats} (max_splats / --max-splats)")
         return
-    avail = available_memory()
-    if avail is None:
-        return
     per_splat = BASE_BYTES_PER_SPLAT + SH_BYTES_PER_COEFFICIENT * rest_floats
-    if count > avail // per_splat:
-        raise SplatFormatError(
-            path, f"holds {count} splats, more than the default splat budget of {avail // per_splat}: "
-                  f"what fits in the {avail / 2**30:.1f} GiB of available memory at about {per_splat} "
-                  f"bytes per splat; raise it with max_splats / --max-splats")
+    budget.check(path, copies * splat_bytes(count, rest_floats), "--max-memory or --max-splats",
+                 f"{count} splats at about {per_splat} bytes each"
+                 + (f", held {copies} times" if copies > 1 else ""))
 
 
 def json_object(path, text, what: str) -> dict:

@@ -27,7 +27,7 @@ from urllib.parse import unquote
 import numpy as np
 
 from ..errors import SplatFormatError
-from ..splats import AXES_RDF, SplatSet
+from ..splats import AXES_RDF, SplatSet, sh_coeff_count
 from ._common import check_budget, file_size, json_object, normalize_quats_
 
 EXT = "KHR_gaussian_splatting"
@@ -150,6 +150,8 @@ class _Buffers:
     def _file(self, index, name, length):
         if not name:
             raise SplatFormatError(self.path, f"buffers[{index}].uri is empty")
+        if "\0" in name:
+            raise SplatFormatError(self.path, f"buffers[{index}].uri {name!r} holds a NUL byte")
         if os.path.isabs(name) or ".." in name.replace("\\", "/").split("/") or ":" in name:
             raise SplatFormatError(self.path, f"buffers[{index}].uri {name!r} leaves the glTF's folder")
         local = os.path.join(os.path.dirname(os.fspath(self.path)), name)
@@ -298,6 +300,8 @@ def read_gltf(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     doc, binary = _load(path)
     found = _splat_primitives(path, doc)
     _check_nodes(path, doc, {m for m, _, _, _ in found})
+    if len(found) > 1:  # one primitive's counts are checked against its buffer's real bytes
+        _check_claimed_size(path, doc, found, max_degree, max_splats)
     buffers = _Buffers(path, doc, binary)
     parts = []
     for _, _, prim, ext in found:
@@ -307,8 +311,26 @@ def read_gltf(path, max_degree: int = 3, max_splats=None) -> SplatSet:
         parts.append(_read_primitive(path, doc, buffers, prim, max_degree))
         # glTF is not compressed: every count was checked against its buffer's real bytes
         # before allocating, so the budget can be checked on what was actually read
-        check_budget(path, sum(p.count for p in parts), 0, max_splats)
+        check_budget(path, sum(p.count for p in parts), max(p.sh_rest.shape[1] for p in parts) * 3,
+                     max_splats)
     return parts[0] if len(parts) == 1 else _concat(parts)
+
+
+def _check_claimed_size(path, doc, found, max_degree, max_splats) -> None:
+    """The budget on what the primitives claim, before any is read: every use of an accessor
+    counts (128 primitives reusing one accessor set decode it 128 times), with its SH, and
+    several primitives are held twice (the parts and their merge)."""
+    accessors = doc.get("accessors") if isinstance(doc.get("accessors"), list) else []
+    total, rest = 0, 0
+    for _, _, prim, _ in found:
+        attrs = prim.get("attributes") if isinstance(prim, dict) else None
+        index = attrs.get("POSITION") if isinstance(attrs, dict) else None
+        acc = accessors[index] if isinstance(index, int) and 0 <= index < len(accessors) else None
+        count = acc.get("count") if isinstance(acc, dict) else None
+        if isinstance(count, int) and not isinstance(count, bool) and count > 0:
+            total += count
+            rest = max(rest, 3 * sh_coeff_count(min(_sh_degree(path, attrs), max_degree)))
+    check_budget(path, total, rest, max_splats, copies=2 if len(found) > 1 else 1)
 
 
 def _concat(parts) -> SplatSet:

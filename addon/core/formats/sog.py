@@ -85,6 +85,8 @@ class _Files:
         try:  # zipfile stops at the declared size and checks the CRC: a lying entry fails here
             with self.zip.open(info) as f:
                 data = f.read(info.file_size + 1)
+        except RuntimeError as exc:  # zipfile: "File ... is encrypted, password required"
+            raise SplatFormatError(self.path, f"cannot read {name}: {exc}") from None
         except (zipfile.BadZipFile, NotImplementedError, OSError, EOFError, ValueError) as exc:
             raise SplatFormatError(self.path, f"cannot inflate {name}: {exc}") from None
         return data
@@ -136,7 +138,7 @@ def _file_names(path, meta, key, count) -> list:
     if not (isinstance(files, list) and len(files) >= count and all(isinstance(f, str) for f in files)):
         raise SplatFormatError(path, f"meta.json {key}.files must list {count} image name(s)")
     for name in files[:count]:  # names stay inside the SOG: no folders, no '..'
-        if not name or name != os.path.basename(name) or name in (".", "..") or "\\" in name:
+        if not name or name != os.path.basename(name) or name in (".", "..") or "\\" in name or "\0" in name:
             raise SplatFormatError(path, f"meta.json {key}.files names {name!r}, not a plain file name")
     return files[:count]
 

@@ -1,0 +1,260 @@
+"""Issue 26: every bad input or option is one clear line (`error: WHAT: WHY`, exit 1 for
+data, 2 for usage) and nothing is allocated past the memory budget (core/budget.py): the
+child's peak RSS is measured under `--max-memory 1.5G` for each hostile file and option."""
+from __future__ import annotations
+
+import gzip
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BUDGET = "1.5G"
+PEAK_LIMIT = int(1.5 * 2**30)
+
+# Runs the CLI as its own child, so RUSAGE_CHILDREN is that one command's peak alone
+# (pytest's own RUSAGE_CHILDREN keeps the largest child any earlier test ran).
+_MEASURE = r"""
+import json, resource, subprocess, sys
+r = subprocess.run(sys.argv[1:], capture_output=True, text=True)
+print(json.dumps({"rc": r.returncode, "out": r.stdout, "err": r.stderr,
+                  "peak": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024}))
+"""
+
+
+def cli(*args, timeout=180):
+    """(exit code, stdout, stderr, the command's peak RSS in bytes)."""
+    cmd = [sys.executable, "-c", _MEASURE, sys.executable, "-m", "addon", *map(str, args)]
+    res = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    assert res.returncode == 0, res.stderr
+    r = json.loads(res.stdout.strip().splitlines()[-1])
+    return r["rc"], r["out"], r["err"], r["peak"]
+
+
+def one_line(err: str, *words) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("EGL Error")]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("error: "), err
+    assert "Traceback" not in err, err
+    for w in words:
+        assert w.lower() in lines[0].lower(), err
+    return lines[0]
+
+
+# --- hostile files ----------------------------------------------------------------------
+
+def _sog_folder(testdata, tmp_path, edit):
+    folder = tmp_path / "sog"
+    shutil.copytree(testdata / "test64_sog_unbundled", folder)
+    meta = json.loads((folder / "meta.json").read_text())
+    edit(meta)
+    (folder / "meta.json").write_text(json.dumps(meta))
+    return folder / "meta.json"
+
+
+def _glb_chunks(path):
+    data = Path(path).read_bytes()
+    n = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + n])
+    rest = data[20 + n:]
+    blen = struct.unpack_from("<I", rest, 0)[0]
+    return doc, rest[8:8 + blen]
+
+
+def _glb(path, doc, binary):
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    binary += b"\0" * (-len(binary) % 4)
+    body = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(binary), 0x004E4942) + binary
+    Path(path).write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)
+
+
+def test_nul_byte_in_a_sog_file_name(testdata, tmp_path):
+    def edit(meta):
+        meta["means"]["files"][0] = "means\0_l.webp"
+    meta = _sog_folder(testdata, tmp_path, edit)
+    rc, _, err, _ = cli("info", meta)
+    assert rc == 1
+    one_line(err, str(meta), "plain file name")
+
+
+def test_nul_byte_in_a_gltf_uri(testdata, tmp_path):
+    doc, binary = _glb_chunks(testdata / "test64.glb")
+    (tmp_path / "x.bin").write_bytes(binary)
+    doc["buffers"][0]["uri"] = "x\0.bin"
+    gltf = tmp_path / "nul.gltf"
+    gltf.write_text(json.dumps(doc))
+    rc, _, err, _ = cli("info", gltf)
+    assert rc == 1
+    one_line(err, str(gltf), "nul")
+
+
+def test_encrypted_sog_zip(testdata, tmp_path):
+    data = bytearray((testdata / "test64.sog").read_bytes())
+    for sig, flag_at in ((b"PK\x03\x04", 6), (b"PK\x01\x02", 8)):  # set "encrypted" everywhere
+        at = data.find(sig)
+        while at >= 0:
+            data[at + flag_at] |= 1
+            at = data.find(sig, at + 4)
+    sog = tmp_path / "encrypted.sog"
+    sog.write_bytes(bytes(data))
+    rc, _, err, _ = cli("info", sog)
+    assert rc == 1
+    one_line(err, str(sog), "encrypted")
+
+
+def _spz_of_zeros(path, count=10_000_000):
+    """A gzip'd SPZ v2 of zeros claiming `count` splats: ~185 KB on disk, GBs decoded."""
+    header = struct.pack("<IIIBBBB", 0x5053474E, 2, count, 0, 12, 0, 0)
+    per = 9 + 1 + 3 + 3 + 3  # positions, alpha, colour, scale, rotation
+    with gzip.open(path, "wb", compresslevel=9) as f:
+        f.write(header)
+        zeros = bytes(per * 1_000_000)
+        for _ in range(count // 1_000_000):
+            f.write(zeros)
+
+
+def test_spz_claiming_ten_million_splats_is_refused_within_the_budget(tmp_path):
+    spz = tmp_path / "zeros.spz"
+    _spz_of_zeros(spz)
+    assert spz.stat().st_size < 400_000
+    rc, _, err, peak = cli("info", spz, "--max-memory", BUDGET)
+    assert rc == 1
+    line = one_line(err, str(spz), "10000000 splats", "--max-memory")
+    assert "budget" in line
+    assert peak < PEAK_LIMIT, peak
+    print(f"spz of zeros, 10M splats: peak RSS {peak / 2**20:.0f} MiB")
+
+
+def test_glb_reusing_accessors_counts_every_use(tmp_path):
+    from addon.core.formats import write
+    from addon.core.formats.synth import random_splats
+
+    base = tmp_path / "base.glb"
+    write(base, random_splats(65536, degree=3, seed=2), "glb")
+    doc, binary = _glb_chunks(base)
+    prims = doc["meshes"][0]["primitives"]
+    doc["meshes"][0]["primitives"] = [dict(prims[0]) for _ in range(128)]
+    hostile = tmp_path / "reused.glb"
+    _glb(hostile, doc, binary)
+    assert hostile.stat().st_size < 16 * 2**20
+    rc, _, err, peak = cli("info", hostile, "--max-memory", BUDGET)
+    assert rc == 1
+    one_line(err, str(hostile), "8388608 splats", "--max-memory")
+    assert peak < PEAK_LIMIT, peak
+    print(f"glb, 128 primitives reusing one accessor set: peak RSS {peak / 2**20:.0f} MiB")
+
+
+# --- render options ---------------------------------------------------------------------
+
+def test_render_resolution_16384_is_refused_within_the_budget(testdata, tmp_path):
+    out = tmp_path / "out"
+    rc, _, err, peak = cli("render", testdata / "test64.ply", "--out", out, "--frames", "1",
+                           "--resolution", "16384x16384", "--max-memory", BUDGET)
+    assert rc == 1
+    one_line(err, "--resolution 16384x16384", "GiB", "--max-memory")
+    assert not out.exists()
+    assert peak < PEAK_LIMIT, peak
+    print(f"render --resolution 16384x16384: peak RSS {peak / 2**20:.0f} MiB")
+
+
+def test_render_resolution_65536_is_one_line(testdata, tmp_path):
+    out = tmp_path / "out"
+    rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", out, "--frames", "1",
+                        "--resolution", "65536x65536")
+    assert rc == 1
+    one_line(err, "--resolution 65536x65536", "--max-memory")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args, words", [
+    (("--frames", "99999999999"), ("--frames 99999999999", "1048574")),
+    (("--frames", "2000000"), ("--frames 2000000", "1048574")),  # was clamped to 1048574
+    (("--frames", "1", "--resolution", "70000x100"), ("--resolution 70000x100", "65536")),  # was clamped
+    (("--frames", "1", "--resolution", "2x2"), ("--resolution 2x2", "4-65536")),  # was clamped to 4
+])
+def test_render_limits_are_usage_errors_not_clamps(testdata, tmp_path, args, words):
+    out = tmp_path / "out"
+    rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", out, *args, timeout=60)
+    assert rc == 2
+    one_line(err, *words)
+    assert not out.exists()
+
+
+def test_render_limits_match_blender(bpy_empty):
+    import bpy
+    from addon.cli import render
+
+    scene = bpy.types.Scene.bl_rna.properties
+    settings = bpy.types.RenderSettings.bl_rna.properties
+    for name in ("frame_start", "frame_end"):
+        assert (scene[name].hard_min, scene[name].hard_max) == (0, render.MAX_FRAME)
+    for name in ("resolution_x", "resolution_y"):
+        assert (settings[name].hard_min, settings[name].hard_max) == (render.MIN_RESOLUTION,
+                                                                       render.MAX_RESOLUTION)
+
+
+def test_rejected_option_leaves_no_out_folder(testdata, tmp_path):
+    out = tmp_path / "out"
+    rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", out, "--frames", "1",
+                        "--engine-option", "bogus=1")
+    assert rc == 1
+    one_line(err, "--engine-option")
+    assert not out.exists()
+
+
+def _unwritable(tmp_path):
+    """A folder this process cannot make files in, root included: /proc/1 (Linux)."""
+    if not os.path.isdir("/proc/1"):
+        pytest.skip("no /proc")
+    return "/proc/1"
+
+
+def test_render_into_an_unwritable_folder(testdata, tmp_path):
+    folder = _unwritable(tmp_path)
+    rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", folder, "--frames", "1", timeout=60)
+    assert rc == 1
+    one_line(err, folder, "cannot write")
+
+
+def test_unbundled_sog_into_a_missing_or_unwritable_folder(testdata, tmp_path):
+    missing = tmp_path / "missing" / "meta.json"
+    rc, _, err, _ = cli("convert", testdata / "test64.ply", missing)
+    assert rc == 1
+    one_line(err, str(missing.parent), "no such folder")
+    folder = _unwritable(tmp_path)
+    rc, _, err, _ = cli("convert", testdata / "test64.ply", os.path.join(folder, "meta.json"))
+    assert rc == 1
+    one_line(err, folder, "cannot write")
+
+
+def test_budget_parses_sizes_and_names_the_flag():
+    from addon.core import budget
+    from addon.core.errors import SplatFormatError
+
+    assert budget.parse_size("1.5G") == int(1.5 * 2**30)
+    assert budget.parse_size("800M") == 800 * 2**20
+    assert budget.parse_size("2GiB") == 2 * 2**30
+    assert budget.parse_size("4096") == 4096
+    for bad in ("", "G", "-1G", "0", "1.5X"):
+        with pytest.raises(ValueError):
+            budget.parse_size(bad)
+    budget.set_max_memory(1 << 20)
+    try:
+        with pytest.raises(SplatFormatError, match="--max-memory"):
+            budget.check("thing", 1 << 40, "--max-memory")
+    finally:
+        budget.set_max_memory(None)
+
+
+def test_bad_max_memory_is_a_usage_error(testdata):
+    rc, _, err, _ = cli("info", testdata / "test64.ply", "--max-memory", "lots")
+    assert rc == 2
+    assert "--max-memory" in err and "Traceback" not in err

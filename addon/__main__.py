@@ -11,6 +11,8 @@ import importlib
 import os
 import sys
 
+import numpy as np
+
 from .cli import UsageError, UserError
 from .core import budget
 from .core.errors import SplatFormatError
@@ -59,7 +61,11 @@ def main(argv=None, prog: str = "python -m addon") -> int:
     module = importlib.import_module(f".cli.{args.command}", __package__)
     budget.set_max_memory(args.max_memory)
     try:
-        return int(module.run(args) or 0)
+        # Overflow in decoding (exp of a huge log-scale, ...) gives Inf, which the bad-value
+        # policy then drops, fixes or refuses and reports on one line: numpy's own warnings
+        # would only add noise to stderr.
+        with np.errstate(all="ignore"):
+            return int(module.run(args) or 0)
     except UsageError as exc:  # an option out of range: usage, as argparse's own errors
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -258,3 +258,27 @@ def test_bad_max_memory_is_a_usage_error(testdata):
     rc, _, err, _ = cli("info", testdata / "test64.ply", "--max-memory", "lots")
     assert rc == 2
     assert "--max-memory" in err and "Traceback" not in err
+
+
+def test_numpy_overflow_warnings_stay_off_stderr(tmp_path):
+    """Huge log-scales and logits overflow exp in decoding: the bad-value report is the one
+    line, never numpy's RuntimeWarning (it reached stderr before)."""
+    from addon.core.formats.ply import write_ply
+    from addon.core.formats.synth import random_splats
+
+    base = tmp_path / "base.ply"
+    write_ply(base, random_splats(16, seed=1))
+    data = base.read_bytes()
+    body = data.index(b"end_header\n") + len(b"end_header\n")
+    names = [ln.split()[-1] for ln in data[:body].decode().splitlines() if ln.startswith("property")]
+    records = np.frombuffer(data[body:], dtype=[(n, "<f4") for n in names]).copy()
+    records["scale_0"][:4] = 1000.0  # exp overflows
+    records["opacity"][:4] = -1e30  # the sigmoid's exp overflows
+    hostile = tmp_path / "overflow.ply"
+    hostile.write_bytes(data[:body] + records.tobytes())
+    rc, _, err, _ = cli("info", hostile)
+    assert rc == 0 and "Warning" not in err, err
+    rc, _, err, _ = cli("convert", hostile, tmp_path / "out.spz")
+    assert rc == 0, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("warning: ") and "NaN/Inf" in lines[0], err

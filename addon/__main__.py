@@ -32,6 +32,7 @@ def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
     for name, help_text in COMMANDS.items():
         module = importlib.import_module(f".cli.{name}", __package__)
         module.configure(command := sub.add_parser(name, help=help_text, description=help_text))
+        command.set_defaults(command_parser=command)
         command.add_argument("--max-memory", type=_size, metavar="SIZE",
                              help="memory budget, e.g. 1.5G: a file or option that would need more is "
                                   "refused before allocating (default: available memory with headroom)")
@@ -43,6 +44,16 @@ def _size(text: str) -> int:
         return budget.parse_size(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _unrecognized(parser, unknown) -> None:
+    import difflib
+
+    known = [o for action in parser._actions for o in action.option_strings if o.startswith("--")]
+    guesses = [g for u in unknown if u.startswith("-")
+               for g in difflib.get_close_matches(u.split("=")[0], known, n=1)]
+    hint = f" (did you mean {', '.join(guesses)}?)" if guesses else ""
+    parser.error(f"unrecognized arguments: {' '.join(unknown)}{hint}")  # exits 2
 
 
 def _name(filename) -> str:
@@ -57,7 +68,9 @@ def _os_error_text(exc: OSError) -> str:
 
 
 def main(argv=None, prog: str = "python -m addon") -> int:
-    args = _parser(prog).parse_args(argv)
+    args, unknown = _parser(prog).parse_known_args(argv)
+    if unknown:  # the sub-command's usage, not the top level's, and a guess at a misspelling
+        _unrecognized(args.command_parser, unknown)
     module = importlib.import_module(f".cli.{args.command}", __package__)
     budget.set_max_memory(args.max_memory)
     try:

@@ -282,3 +282,12 @@ def test_numpy_overflow_warnings_stay_off_stderr(tmp_path):
     assert rc == 0, err
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("warning: ") and "NaN/Inf" in lines[0], err
+
+
+def test_misspelled_option_gives_the_sub_command_usage(testdata, tmp_path):
+    rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", tmp_path / "o", "--otu", "x",
+                        timeout=60)
+    assert rc == 2
+    assert "usage: python -m addon render" in err, err
+    assert "unrecognized arguments: --otu x (did you mean --out?)" in err, err
+    assert not (tmp_path / "o").exists()

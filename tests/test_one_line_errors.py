@@ -291,3 +291,15 @@ def test_misspelled_option_gives_the_sub_command_usage(testdata, tmp_path):
     assert "usage: python -m addon render" in err, err
     assert "unrecognized arguments: --otu x (did you mean --out?)" in err, err
     assert not (tmp_path / "o").exists()
+
+
+def test_an_ordinary_render_fits_the_budget(testdata, tmp_path):
+    """The budget refuses what would pass it, not ordinary work: Blender, the capture and a
+    small frame stay under --max-memory 1.5G, measured."""
+    out = tmp_path / "out"
+    rc, _, err, peak = cli("render", testdata / "test64.ply", "--out", out, "--frames", "1",
+                           "--resolution", "64x64", "--max-memory", BUDGET)
+    assert rc == 0, err
+    assert (out / "frame_0001.png").is_file()
+    assert peak < PEAK_LIMIT, peak
+    print(f"render test64.ply 64x64 under --max-memory {BUDGET}: peak RSS {peak / 2**20:.0f} MiB")

@@ -303,3 +303,17 @@ def test_an_ordinary_render_fits_the_budget(testdata, tmp_path):
     assert (out / "frame_0001.png").is_file()
     assert peak < PEAK_LIMIT, peak
     print(f"render test64.ply 64x64 under --max-memory {BUDGET}: peak RSS {peak / 2**20:.0f} MiB")
+
+
+@pytest.mark.parametrize("args, rc_want, words", [
+    (("--frames", "99999999999"), 2, ("--frames 99999999999", "1048574")),  # was a traceback
+    (("--splats", "100000000", "--max-memory", BUDGET), 1, ("--splats 100000000", "--max-memory")),
+    (("--resolution", "16384x16384", "--max-memory", BUDGET), 1, ("--resolution 16384x16384", "--max-memory")),
+])
+def test_demo_options_are_one_line_within_the_budget(tmp_path, args, rc_want, words):
+    out = tmp_path / "demo"
+    rc, _, err, peak = cli("demo", "--out", out, *args, timeout=60)
+    assert rc == rc_want
+    one_line(err, *words)
+    assert not out.exists()
+    assert peak < PEAK_LIMIT, peak

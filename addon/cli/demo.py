@@ -22,8 +22,10 @@ import os
 import statistics
 import time
 
-from . import UserError
-from .render import parse_resolution
+from . import UsageError, UserError
+from .render import MAX_FRAME, check_frame_memory, parse_resolution
+from ..core import budget
+from ..core.formats._common import splat_bytes
 from .render_job import render_animation
 
 DEFAULT_OUT = os.path.join("out", "demo")
@@ -54,8 +56,14 @@ def _check(args) -> tuple[int, int]:
         raise UserError(f"--resolution {args.resolution}: H.264 needs an even width and height")
     if args.frames < MIN_FRAMES:
         raise UserError(f"--frames {args.frames}: the animation needs at least {MIN_FRAMES} frames")
+    if args.frames > MAX_FRAME:
+        raise UsageError(f"--frames {args.frames}: at most {MAX_FRAME} (Blender's limit)")
     if args.splats < 1:
         raise UserError(f"--splats {args.splats}: must be at least 1")
+    check_frame_memory(f"--resolution {args.resolution}", width, height)
+    # the showcase's splats, its morph target and their evaluated copy, with degree-3 SH
+    budget.check(f"--splats {args.splats}", 3 * splat_bytes(args.splats, 45), "--max-memory",
+                 "the splats, the morph target and their evaluated copy")
     if args.fps < 1:
         raise UserError(f"--fps {args.fps}: must be at least 1")
     if args.file and not os.path.isfile(args.file):

@@ -107,7 +107,7 @@ def test_a_killed_render_leaves_the_frame_being_written_and_later_ones_untouched
     assert png_whole((out / "frame_0001.png").read_bytes())  # finished: renamed in
     assert (out / "frame_0002.png").read_bytes() == old["frame_0002.png"]  # written, not yet renamed
     assert (out / "frame_0003.png").read_bytes() == old["frame_0003.png"]
-    hidden = [n for n in os.listdir(out) if n.startswith(".")]
+    hidden = [n for n in os.listdir(out) if n.startswith(".") and not n.endswith(".lock")]
     assert len(hidden) == 1 and hidden[0].startswith(".frame_0002.") and hidden[0].endswith(".frametmp.png")
 
     # a normal run over it: whole frames, the dead run's temporary removed, none of its own left

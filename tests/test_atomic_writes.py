@@ -41,7 +41,8 @@ CHILD = textwrap.dedent("""
 
     def hooked_open(path, *a, **k):
         fd = real_open(path, *a, **k)
-        if point == "open" and os.path.dirname(os.path.realpath(path)) == folder:
+        if point == "open" and os.path.dirname(os.path.realpath(path)) == folder \\
+                and str(path).endswith(".tmp"):
             pause()  # a file exists in the folder, nothing written to it yet
         return fd
 

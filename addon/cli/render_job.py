@@ -2,6 +2,9 @@
 Blender's own pipeline (bpy.ops.render.render, what `blender -b -a` runs), a line per
 finished frame from Blender's render handlers, and Ctrl+C.
 
+The output folder's frames are claimed while the job runs (`_claimed`): a second render
+of overlapping frames into it stops with one line. SIGTERM is handled as SIGINT.
+
 Ctrl+C (SIGINT): the first asks the engine to stop (core/stop.py) at the frame being
 rendered, which Blender then does not write; every finished frame stays whole on disk.
 A second Ctrl+C stops at once.
@@ -22,6 +25,7 @@ keep Blender's own direct write.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import signal
@@ -148,36 +152,125 @@ class TemporaryFrames:
 
 
 class _StopOnSigint:
-    """First SIGINT: ask the engine to stop after saving nothing more; second: default."""
+    """First SIGINT or SIGTERM: ask the engine to stop after saving nothing more (the job
+    then ends as after Ctrl+C: finished frames kept, temporaries removed, exit 130);
+    a second: Python's default for SIGINT (KeyboardInterrupt), for SIGTERM the same
+    stop, then termination once the temporaries are removed."""
 
     def __init__(self):
-        self._old = None
+        self._old = {}
 
     def _handle(self, signum, frame):
+        if stop.stop_requested() and signum == signal.SIGTERM:
+            atomic.remove_temporaries()
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGTERM)
+            return
         stop.request_stop()
-        print("stopping: finished frames are kept (Ctrl+C again to quit now)", flush=True)
+        name = "Ctrl+C" if signum == signal.SIGINT else "SIGTERM"
+        print(f"stopping ({name}): finished frames are kept (Ctrl+C again to quit now)", flush=True)
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
     def __enter__(self):
         stop.clear_stop()
-        self._old = signal.signal(signal.SIGINT, self._handle)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._old[sig] = signal.signal(sig, self._handle)
         return self
 
     def __exit__(self, *exc):
-        signal.signal(signal.SIGINT, self._old)
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
 
 
 def render_animation(bpy, scene, total: int, label: str) -> tuple[list[float], bool]:
     """Render the scene's frame range: (seconds per finished frame, whether Ctrl+C stopped
     it). A render error other than the stop is a UserError starting with `label`."""
-    with TemporaryFrames(bpy, scene) as frames, Progress(bpy, total, frames) as progress, \
-            _StopOnSigint():
+    with _claimed(scene), TemporaryFrames(bpy, scene) as frames, \
+            Progress(bpy, total, frames) as progress, _StopOnSigint():
         try:
             bpy.ops.render.render(animation=True, scene=scene.name)
         except RuntimeError as exc:
             if not stop.stop_requested():
                 raise UserError(f"{label}: {one_line(exc)}") from None
     return progress.times, stop.stop_requested()
+
+
+_RENDER_LOCK = re.compile(r"^\.splatline-render\.(\d+)\.lock$")
+
+
+def _overlap(a: range, b: range) -> bool:
+    if not a or not b or a[-1] < b[0] or b[-1] < a[0]:
+        return False
+    small, big = (a, b) if len(a) <= len(b) else (b, a)
+    return any(f in big for f in small)
+
+
+@contextlib.contextmanager
+def _claimed(scene):
+    """The output folder's frames are claimed for the job: each render holds an flock on its
+    own `.splatline-render.PID.lock` there (it appears already locked, by a rename), which
+    names its file pattern and frames. A render whose frames overlap a running one's (same
+    pattern) stops with one line; disjoint ranges (a farm's split) run side by side. A lock
+    file nobody holds any more (kill -9) is removed. No fcntl (Windows): nothing claimed."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    folder, pattern = os.path.split(scene.render.frame_path(frame=scene.frame_start))
+    pattern = os.path.basename(scene.render.filepath)
+    mine = range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step))
+    lock = os.path.join(folder, f".splatline-render.{os.getpid()}.lock")
+    try:
+        tmp = atomic.temporary_name(lock)
+        fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o666)
+    except OSError:  # no such folder yet, or unwritable: Blender's write says what is wrong
+        yield
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        os.write(fd, json.dumps({"pid": os.getpid(), "pattern": pattern,
+                                 "frames": [mine.start, mine.stop, mine.step]}).encode())
+        atomic.register_temporary(lock)
+        os.replace(tmp, lock)
+        for name in sorted(os.listdir(folder)):
+            m = _RENDER_LOCK.match(name)
+            if m is None or int(m.group(1)) == os.getpid():
+                continue
+            other = _holder(fcntl, os.path.join(folder, name))
+            if other is not None and other.get("pattern") == pattern and \
+                    _overlap(mine, range(*other.get("frames", (0, 0, 1)))):
+                r = range(*other["frames"])
+                raise UserError(f"the output folder {folder} is being written by another Splatline "
+                                f"run (process {m.group(1)}, frames {r.start}-{r[-1]}); wait for it "
+                                "to end or choose another --out")
+        yield
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        atomic.forget_temporary(lock, remove=True)
+        os.close(fd)
+
+
+def _holder(fcntl, path):
+    """The claim in a lock file that a live process holds; None after removing a dead one's."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                return json.loads(os.pread(fd, 4096, 0))
+            except (OSError, ValueError):
+                return {}
+        with contextlib.suppress(OSError):
+            os.unlink(path)  # nobody holds it: its render is gone
+        return None
+    finally:
+        os.close(fd)
 
 
 def one_line(exc) -> str:

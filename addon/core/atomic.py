@@ -217,3 +217,77 @@ def write_group(files) -> None:
                     _forget(tmp, remove=os.path.lexists(tmp))
         for folder in {os.path.dirname(t) for t, s in zip(targets, staged) if s is not None}:
             _sync_folder(folder)
+
+
+class Claimed(Exception):
+    """Another process holds the claim on an output (its message says which and who)."""
+
+
+@contextlib.contextmanager
+def claim(lock_path: str, what: str):
+    """Hold an exclusive claim on an output while the block runs: an flock on lock_path
+    (created, and removed when released), taken without waiting; Claimed when another
+    process holds it. The kernel drops the lock when its holder dies, even by kill -9, so
+    a stale lock file never blocks anyone. Where fcntl is missing (Windows) nothing is
+    claimed."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    lock_path = os.path.abspath(lock_path)
+    with _sigterm_held():  # no SIGTERM between creating the file and registering it
+        fd = _lock(fcntl, lock_path, what)
+    if fd is None:  # an unwritable folder: the write itself then says what is wrong
+        yield
+        return
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        yield
+    finally:
+        _forget(lock_path, remove=True)  # before the unlock: a waiter then finds a new file
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def _sigterm_held():
+    mask = getattr(signal, "pthread_sigmask", None)
+    if mask is None:
+        yield
+        return
+    old = mask(signal.SIG_BLOCK, {signal.SIGTERM})
+    try:
+        yield
+    finally:
+        mask(signal.SIG_SETMASK, old)
+
+
+def _lock(fcntl, lock_path, what):
+    while True:
+        try:
+            fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError:
+            return None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
+            except OSError:
+                holder = ""
+            os.close(fd)
+            who = f" (process {holder})" if holder.isdigit() else ""
+            raise Claimed(f"{what} is being written by another Splatline run{who}; "
+                          "wait for it to end or choose another output") from None
+        except BaseException:
+            os.close(fd)
+            raise
+        try:  # the holder before us may have removed the file it locked: lock the one there now
+            same = os.fstat(fd).st_ino == os.stat(lock_path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            _register(lock_path)  # a caught SIGTERM removes it with the temporaries
+            return fd
+        os.close(fd)

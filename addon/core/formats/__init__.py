@@ -9,9 +9,11 @@ Every failure raises SplatFormatError(path, reason).
 """
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass, field
 
+from .. import atomic
 from ..errors import SplatFormatError
 from ..select import select
 from ..reframe import reframe
@@ -142,6 +144,30 @@ def write(path, splats: SplatSet, format=None, **options) -> None:
     if os.path.isdir(path):
         raise SplatFormatError(path, "is a directory")
     _refuse_negative_scales(path, splats)
+    with atomic.sigterm_cleans_up(), _claimed(path):
+        _write(path, splats, fmt, options)
+
+
+def _claimed(path):
+    """The output is claimed while it is written (core/atomic.claim): a second write to the
+    same output from another process stops with one SplatFormatError instead of racing."""
+    target = os.path.realpath(os.fspath(path))
+    if os.path.exists(target) and not os.path.isfile(target):
+        return contextlib.nullcontext()  # a device or pipe: nothing to claim
+    folder, name = os.path.split(target)
+    return _claim_or_refuse(path, os.path.join(folder, f".{name}.splatline.lock"))
+
+
+@contextlib.contextmanager
+def _claim_or_refuse(path, lock_path):
+    try:
+        with atomic.claim(lock_path, "this output"):
+            yield
+    except atomic.Claimed as exc:
+        raise SplatFormatError(path, str(exc)) from None
+
+
+def _write(path, splats: SplatSet, fmt: str, options: dict) -> None:
     if fmt == "ply":
         from .ply import write_ply
         write_ply(path, splats)

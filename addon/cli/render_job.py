@@ -153,9 +153,9 @@ class TemporaryFrames:
 
 class _StopOnSigint:
     """First SIGINT or SIGTERM: ask the engine to stop after saving nothing more (the job
-    then ends as after Ctrl+C: finished frames kept, temporaries removed, exit 130);
-    a second: Python's default for SIGINT (KeyboardInterrupt), for SIGTERM the same
-    stop, then termination once the temporaries are removed."""
+    then ends as after Ctrl+C: finished frames kept, temporaries removed, exit 130).
+    A second SIGINT: Python's default (KeyboardInterrupt); a second SIGTERM: the
+    temporaries and the claim removed, then the process ends by SIGTERM."""
 
     def __init__(self):
         self._old = {}

@@ -104,6 +104,17 @@ def bpy_empty(_bpy_registered):
     return bpy
 
 
+@pytest.fixture
+def native_bpy(bpy_empty):
+    """bpy_empty on a Blender with native splats (PointCloud.type GAUSSIAN_SPLAT, 5.3+);
+    elsewhere the test is skipped: there is nothing to test."""
+    from addon.blender.data import native
+
+    if not native.has_native_splats():
+        pytest.skip("this Blender has no native splats (PointCloud.type GAUSSIAN_SPLAT: 5.3+)")
+    return bpy_empty
+
+
 # Blender's bundled Python packages (OpenImageIO, ...) inside the bpy wheel: found the way the
 # command line finds them (core's webp module), appended so the venv's own numpy wins.
 from addon.core.formats.webp import _bundled_site_packages  # noqa: E402

@@ -9,15 +9,6 @@ import pytest
 pytestmark = pytest.mark.usefixtures("bpy_empty")
 
 
-@pytest.fixture
-def native_bpy(bpy_empty):
-    from addon.blender.data import native
-
-    if not native.has_native_splats():
-        pytest.skip("this Blender has no native splats (PointCloud.type GAUSSIAN_SPLAT: 5.3+)")
-    return bpy_empty
-
-
 def _blender_import(bpy, path):
     op = "ply_import" if path.suffix == ".ply" else "spz_import"
     assert getattr(bpy.ops.wm, op)(filepath=str(path)) == {"FINISHED"}

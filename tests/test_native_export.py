@@ -34,15 +34,6 @@ ROTATION_ATOL = 2.0 ** -22  # two float32 ulps of 1.0
 OPACITY_ATOL = 2.0 ** -23  # two float32 ulps of 0.5..1
 
 
-@pytest.fixture
-def native_bpy(bpy_empty):
-    from addon.blender.data import native
-
-    if not native.has_native_splats():
-        pytest.skip("this Blender has no native splats (PointCloud.type GAUSSIAN_SPLAT: 5.3+)")
-    return bpy_empty
-
-
 def _blender_import(bpy, path):
     """Blender's own importer, the object it made selected alone (as File > Export sees it)."""
     op = "ply_import" if path.suffix == ".ply" else "spz_import"

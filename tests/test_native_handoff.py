@@ -8,26 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from test_effects_capture import _add as _effect  # an effect through the real operator
+
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
-
-
-@pytest.fixture
-def native_bpy(bpy_empty):
-    from addon.blender.data import native
-
-    if not native.has_native_splats():
-        pytest.skip("this Blender has no native splats (PointCloud.type GAUSSIAN_SPLAT: 5.3+)")
-    return bpy_empty
-
-
-def _effect(bpy, obj, kind, **props):
-    bpy.context.view_layer.objects.active = obj
-    with bpy.context.temp_override(object=obj):
-        assert bpy.ops.splatline.effect_add(type=kind) == {"FINISHED"}
-    effect = obj.splatline.effects[-1]
-    for name, value in props.items():
-        setattr(effect, name, value)
-    return effect
 
 
 def _key(owner, path, values):

@@ -29,8 +29,11 @@ RENDER_CHILD = textwrap.dedent("""
 
     bpy.app.handlers.render_write.append(hold_frame_2)
     from addon.__main__ import main
-    sys.exit(main(["render", {capture!r}, "--out", {out!r}, "--frames", "1-3",
-                   "--resolution", "48x32", "--format", "PNG"]))
+    rc = main(["render", {capture!r}, "--out", {out!r}, "--frames", "1-3",
+               "--resolution", "48x32", "--format", "PNG"])
+    # bpy 4.5 hangs at exit in a C++ destructor while a Python handler is still registered
+    bpy.app.handlers.render_write.remove(hold_frame_2)
+    sys.exit(rc)
 """)
 
 CONVERT_CHILD = textwrap.dedent("""

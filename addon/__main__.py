@@ -27,11 +27,14 @@ COMMANDS = {
 
 
 def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog=prog, description="Splatline command line")
+    # allow_abbrev=False: `--sh-degre` is a misspelling to report, not --sh-degree; an
+    # abbreviation accepted today would change meaning when a longer option is added.
+    parser = argparse.ArgumentParser(prog=prog, description="Splatline command line", allow_abbrev=False)
     sub = parser.add_subparsers(dest="command", required=True)
     for name, help_text in COMMANDS.items():
         module = importlib.import_module(f".cli.{name}", __package__)
-        module.configure(command := sub.add_parser(name, help=help_text, description=help_text))
+        module.configure(command := sub.add_parser(name, help=help_text, description=help_text,
+                                                   allow_abbrev=False))
         command.set_defaults(command_parser=command)
         command.add_argument("--max-memory", type=_size, metavar="SIZE",
                              help="memory budget, e.g. 1.5G: a file or option that would need more is "

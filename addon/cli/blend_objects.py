@@ -24,11 +24,7 @@ def read_objects(path, names, axes=None) -> list:
 
     if not os.path.isfile(path):  # before starting Blender, which would print its own error
         raise SplatFormatError(path, "no such file" if not os.path.exists(path) else "is not a regular file")
-    try:
-        bpy = start(path)
-    except RuntimeError as exc:  # Blender reports an unreadable .blend as an error report
-        reason = str(exc).strip().removeprefix("Error:").strip()
-        raise SplatFormatError(path, f"cannot open: {reason}") from None
+    bpy = start(path)  # an unreadable .blend: SplatFormatError naming it
     from ..blender.data.files import object_splats
     from ..blender.data.pointcloud import is_splat_object
 

@@ -1,14 +1,19 @@
 """Start bpy for the command line: factory settings, the add-on registered."""
 from __future__ import annotations
 
+import contextlib
+import os
+import re
 import sys
+import tempfile
 
 
 def start(blend_path=None):
     """Import bpy, load blend_path (or an empty factory scene) and register Splatline.
 
     Returns the bpy module. Safe to call more than once in a process. Without bpy (a
-    `pip install .` without the blender extra), one line says what to install.
+    `pip install .` without the blender extra), one line says what to install. A .blend
+    Blender cannot read is a SplatFormatError naming it, and nothing else is printed.
     """
     try:
         import bpy
@@ -32,5 +37,67 @@ def start(blend_path=None):
     if blend_path is None:
         bpy.ops.wm.read_factory_settings(use_empty=True)
     else:
-        bpy.ops.wm.open_mainfile(filepath=str(blend_path))
+        _open(bpy, blend_path)
     return bpy
+
+
+def _open(bpy, path) -> None:
+    """open_mainfile, whose failure is one line: Blender prints its own report of a file it
+    cannot read ("Error: File format is not supported in file ...") on stdout before raising
+    it, so what it prints is held back and shown only when the file opened."""
+    from ..core.errors import SplatFormatError
+
+    try:
+        with _stdout_dropped_on_error():
+            bpy.ops.wm.open_mainfile(filepath=str(path))
+    except RuntimeError as exc:
+        raise SplatFormatError(path, f"cannot open: {open_error(exc)}") from None
+
+
+def open_error(exc) -> str:
+    """Blender's reason for not opening a .blend, without its 'Error:' prefix and its
+    repetitions of the path (the caller names the file once)."""
+    text = " ".join(str(exc).split()).removeprefix("Error:").strip()
+    text = re.sub(r'Loading "[^"]*" failed: ', "", text)
+    text = re.sub(r"Failed to read blend file '[^']*': ", "", text)
+    text = re.sub(r' in file "[^"]*"', "", text)
+    return text or type(exc).__name__
+
+
+@contextlib.contextmanager
+def _stdout_dropped_on_error():
+    """File descriptor 1 sent to a temporary file for the block (Blender prints from C, so
+    sys.stdout alone would not catch it), then written out, unless the block raised.
+    Where C's stdio cannot be flushed from here (no process-wide libc), nothing is held."""
+    fflush = _c_fflush()
+    if fflush is None:
+        yield
+        return
+    sys.stdout.flush()
+    fflush(None)
+    saved, failed = os.dup(1), False
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 1)
+        try:
+            yield
+        except BaseException:
+            failed = True
+            raise
+        finally:
+            fflush(None)
+            os.dup2(saved, 1)
+            os.close(saved)
+            if not failed:
+                tmp.seek(0)
+                data = tmp.read()
+                while data:
+                    data = data[os.write(1, data):]
+
+
+def _c_fflush():
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None).fflush
+    except (OSError, TypeError, AttributeError):  # Windows: no process-wide libc to load
+        return None

@@ -66,6 +66,11 @@ def _check(args) -> tuple[int, int]:
                  "the splats, the morph target and their evaluated copy")
     if args.fps < 1:
         raise UserError(f"--fps {args.fps}: must be at least 1")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):  # os.makedirs: "File exists"
+        raise UserError(f"--out {args.out}: exists and is not a folder (the demo writes "
+                        "demo.blend, exr/, demo.mp4 and demo.png into a folder)")
+    if args.file and os.path.isdir(args.file):  # as `info` says it
+        raise UserError(f"{args.file}: is a directory, not a splat file")
     if args.file and not os.path.isfile(args.file):
         raise UserError(f"{args.file}: no such file")
     return width, height

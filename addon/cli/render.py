@@ -34,6 +34,7 @@ from ..blender.compat import media_type, set_file_format
 from ..core import budget
 
 FORMATS = ("EXR", "PNG", "MP4")
+EXR_FORMATS = ("OPEN_EXR", "OPEN_EXR_MULTILAYER")  # Blender's file formats that --half applies to
 _BOOL = {"1": True, "true": True, "on": True, "yes": True,
          "0": False, "false": False, "off": False, "no": False}
 
@@ -115,8 +116,12 @@ def set_engine_option(settings, text: str) -> None:
     """NAME=VALUE onto the RenderSettings group, typed by its RNA definition."""
     name, sep, value = text.partition("=")
     name, value = name.strip(), value.strip()
+    # What every PropertyGroup has (rna_type, name) is RNA's, not a render setting; a
+    # POINTER (mesh_scene) is Splatline's own bookkeeping.
+    base = settings.bl_rna.base
+    inherited = {p.identifier for p in base.properties} if base is not None else {"rna_type"}
     props = {p.identifier: p for p in settings.bl_rna.properties
-             if p.identifier != "rna_type" and p.type != "POINTER"}  # mesh_scene: Splatline's own
+             if p.identifier not in inherited and p.type != "POINTER"}
     if not sep or name not in props:
         known = ", ".join(props)
         raise UserError(f"--engine-option {text!r}: expected NAME=VALUE with NAME one of {known}")
@@ -189,6 +194,8 @@ def _prepare(bpy, args):
         configure_output(scene, args.format, args.out, args.half)
     else:
         scene.render.filepath = os.path.join(os.path.abspath(args.out), "frame_####")
+    if args.half:
+        _use_half(scene, args)
     if media_type(scene.render.image_settings) == "VIDEO":
         _check_video_size(scene)
     r = scene.render
@@ -203,6 +210,17 @@ def _prepare(bpy, args):
     return scene
 
 
+def _use_half(scene, args) -> None:
+    """--half on the output the flags, preset or .blend chose: refused where that is not EXR
+    (it used to be ignored there without a word)."""
+    image = scene.render.image_settings
+    if image.file_format not in EXR_FORMATS:
+        source = f"--preset {args.preset}" if args.preset else args.blend
+        raise UsageError(f"--half: half floats are for EXR output; the output format of "
+                         f"{source} is {image.file_format}")
+    image.color_depth = "16"
+
+
 def _apply_preset(name: str) -> None:
     from ..blender.ops.presets import apply_render_preset
     try:
@@ -213,6 +231,8 @@ def _apply_preset(name: str) -> None:
 
 def _check_args(args) -> None:
     """What can be checked without starting Blender (fast one-line errors)."""
+    if os.path.isdir(args.blend):  # as `info` says it
+        raise UserError(f"{args.blend}: is a directory, not a .blend or a splat file")
     if not os.path.isfile(args.blend):
         kind = ".blend file" if args.blend.lower().endswith(".blend") else "file"
         raise UserError(f"{args.blend}: no such {kind}")
@@ -225,6 +245,12 @@ def _check_args(args) -> None:
         check_frame_memory(f"--resolution {args.resolution.strip()}", *parse_resolution(args.resolution))
     if args.step is not None and not 1 <= args.step <= MAX_FRAME:
         raise UsageError(f"--step {args.step}: must lie in 1-{MAX_FRAME}")
+    if args.half:  # the format known before Blender starts (a preset's or a .blend's: _use_half)
+        known = args.format or (None if args.preset or is_blend(args.blend) else "PNG")
+        if known not in (None, "EXR"):
+            why = "" if args.format else " (a capture's default)"
+            raise UsageError(f"--half: half floats are for EXR output, not {known}{why}; "
+                             "use --format EXR, or drop --half")
     if args.camera is not None and is_blend(args.blend):
         raise UserError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
 
@@ -253,10 +279,7 @@ def _open_scene(args):
         if not args.format and not args.preset:
             args.format = "PNG"  # the factory scene's output would be an opaque 8-bit RGB
         return bpy
-    try:
-        return blender_session.start(os.path.abspath(args.blend))
-    except RuntimeError as exc:
-        raise UserError(f"{args.blend}: cannot open: {str(exc).strip()}") from None
+    return blender_session.start(os.path.abspath(args.blend))  # SplatFormatError if unreadable
 
 
 def run(args) -> int:

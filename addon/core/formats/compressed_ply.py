@@ -96,13 +96,14 @@ def read_compressed_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
         color = _lerp(cb[:, 0:3], cb[:, 3:6], color)
     s.sh_dc = ((color - np.float32(0.5)) / np.float32(C0)).astype(np.float32)
     s.opacities = _unorm(packed["packed_color"], 0, 8)
-    s.sh_rest = _read_sh(path, body.get("sh"), n, max_degree)
+    s.sh_rest, s.sh_degree_in_file = _read_sh(path, body.get("sh"), n, max_degree)
     return s
 
 
-def _read_sh(path, sh, n: int, max_degree: int) -> np.ndarray:
+def _read_sh(path, sh, n: int, max_degree: int) -> tuple[np.ndarray, int]:
+    """The SH bands up to max_degree, and the degree the file holds."""
     if sh is None:
-        return np.zeros((n, 0, 3), np.float32)
+        return np.zeros((n, 0, 3), np.float32), 0
     if sh.shape[0] != n:
         raise SplatFormatError(path, f"sh element has {sh.shape[0]} rows for {n} splats")
     count = len(sh.dtype.names)
@@ -119,4 +120,4 @@ def _read_sh(path, sh, n: int, max_degree: int) -> np.ndarray:
     zero = rest == 0
     rest = (rest + np.float32(0.5)) * np.float32(8.0 / 256.0) - np.float32(4.0)
     rest[zero] = -4.0
-    return rest
+    return rest, degree

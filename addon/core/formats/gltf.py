@@ -277,7 +277,8 @@ def _read_primitive(path, doc, buffers, prim, max_degree) -> SplatSet:
     # (NaN stays NaN, for the bad-value policy to handle)
     s.opacities = np.clip(get(f"{EXT}:OPACITY", 1, n)[:, 0], 0.0, 1.0)
     s.sh_dc = get(f"{EXT}:SH_DEGREE_0_COEF_0", 3, n)
-    degree = min(_sh_degree(path, attrs), max_degree)
+    s.sh_degree_in_file = _sh_degree(path, attrs)  # the import reports it, not max_degree
+    degree = min(s.sh_degree_in_file, max_degree)
     names = [f"{EXT}:SH_DEGREE_{d}_COEF_{i}" for d in range(1, degree + 1) for i in range(2 * d + 1)]
     s.sh_rest = np.stack([get(a, 3, n) for a in names], axis=1) if names else np.zeros((n, 0, 3), np.float32)
     return half_turn_z(s)
@@ -339,4 +340,5 @@ def _concat(parts) -> SplatSet:
     for name in ("positions", "scales", "rotations", "opacities", "sh_dc"):
         setattr(s, name, np.concatenate([getattr(p, name) for p in parts]))
     s.sh_rest = np.concatenate([p.sh_rest[:, :k] for p in parts])
+    s.sh_degree_in_file = min(p.sh_degree_in_file for p in parts)  # what the merge can hold
     return s

@@ -205,13 +205,16 @@ def _lookup(files, name, codebook: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return codebook.astype(np.float32)[idx]
 
 
-def _sh_rest(files, meta, count, max_pixels, max_degree) -> np.ndarray:
+def _sh_rest(files, meta, count, max_pixels, max_degree) -> tuple[np.ndarray, int]:
+    """The SH bands up to max_degree, and the degree the file holds (the import reports it)."""
     shn = meta.get("shN")
-    if shn is None or max_degree == 0:
-        return np.zeros((count, 0, 3), np.float32)
+    if shn is None:
+        return np.zeros((count, 0, 3), np.float32), 0
     if not isinstance(shn, dict):
         raise SplatFormatError(files.path, "meta.json shN must be an object")
     bands = _int_field(files.path, shn, "bands", 1, 3, "shN.")
+    if max_degree == 0:
+        return np.zeros((count, 0, 3), np.float32), bands
     palette = _int_field(files.path, shn, "count", 1, 65536, "shN.")
     codebook = _number_list(files.path, meta, "shN", "codebook")
     cen_name, lab_name = _file_names(files.path, meta, "shN", 2)
@@ -230,7 +233,7 @@ def _sh_rest(files, meta, count, max_pixels, max_degree) -> np.ndarray:
     idx = cen.reshape(-1, 4)[flat][..., :3]              # (N, keep, 3) codebook indices
     rest = _lookup(files, cen_name, codebook, idx)
     rest[~valid] = 0.0
-    return rest
+    return rest, bands
 
 
 def read_sog(path, max_degree: int = 3, max_splats=None) -> SplatSet:
@@ -261,5 +264,5 @@ def _decode(files, meta, max_degree) -> SplatSet:
     sh0 = _pixels(files, names["sh0"], count, max_pixels)
     s.sh_dc = _lookup(files, names["sh0"], _number_list(files.path, meta, "sh0", "codebook"), sh0[:, :3])
     s.opacities = sh0[:, 3].astype(np.float32) / np.float32(255)
-    s.sh_rest = _sh_rest(files, meta, count, max_pixels, max_degree)
+    s.sh_rest, s.sh_degree_in_file = _sh_rest(files, meta, count, max_pixels, max_degree)
     return s

@@ -51,10 +51,10 @@ def _open(bpy, path) -> None:
         with _stdout_dropped_on_error():
             bpy.ops.wm.open_mainfile(filepath=str(path))
     except RuntimeError as exc:
-        raise SplatFormatError(path, f"cannot open: {open_error(exc)}") from None
+        raise SplatFormatError(path, f"cannot open: {_open_reason(exc)}") from None
 
 
-def open_error(exc) -> str:
+def _open_reason(exc) -> str:
     """Blender's reason for not opening a .blend, without its 'Error:' prefix and its
     repetitions of the path (the caller names the file once)."""
     text = " ".join(str(exc).split()).removeprefix("Error:").strip()
@@ -69,14 +69,22 @@ def _stdout_dropped_on_error():
     """File descriptor 1 sent to a temporary file for the block (Blender prints from C, so
     sys.stdout alone would not catch it), then written out, unless the block raised.
     Where C's stdio cannot be flushed from here (no process-wide libc), nothing is held."""
-    fflush = _c_fflush()
-    if fflush is None:
+    fflush, tmp = _c_fflush(), None
+    if fflush is not None:
+        try:
+            tmp = tempfile.TemporaryFile()
+            saved = os.dup(1)
+        except OSError:  # nowhere for a temporary file, or no stdout: hold nothing back
+            if tmp is not None:
+                tmp.close()
+            tmp = None
+    if tmp is None:
         yield
         return
     sys.stdout.flush()
     fflush(None)
-    saved, failed = os.dup(1), False
-    with tempfile.TemporaryFile() as tmp:
+    failed = False
+    with tmp:
         os.dup2(tmp.fileno(), 1)
         try:
             yield

@@ -63,7 +63,8 @@ class SplatSet:
     sh_rest: np.ndarray
     axes: str = AXES_RDF
     # the SH degree the source held, where a reader kept fewer bands (a degree-4 file read
-    # as degree 3); None when it kept them all. Only read_with_report reads it.
+    # as degree 3, or any file read under a max_degree); None when it kept them all, or the
+    # reader does not say. Only read_with_report reads it.
     sh_degree_in_file: int | None = None
 
     @property

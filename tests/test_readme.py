@@ -264,3 +264,25 @@ def test_readme_bpy_snippet(testdata, tmp_path):
     assert frames == ["frame_0001.exr", "frame_0002.exr"], frames
     for name in frames:
         assert (out / name).read_bytes()[:4] == b"\x76\x2f\x31\x01"  # OpenEXR's magic number
+
+
+def _anchors(path) -> set[str]:
+    """GitHub's heading anchors: lower case, punctuation dropped, spaces to hyphens."""
+    text = re.sub(r"^```.*?^```", "", path.read_text(), flags=re.S | re.M)
+    return {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+            for h in re.findall(r"^#+ (.*)$", text, flags=re.M)}
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/cli.md", "docs/benchmarks.md", "docs/formats.md",
+                                  "docs/blender-ui.md", "docs/developing.md"])
+def test_links_resolve(page):
+    """Every relative link and image of the page names a file that exists, and a heading in it."""
+    source = ROOT / page
+    for target in re.findall(r"\]\(([^)\s]+)\)", source.read_text()):
+        if re.match(r"\w+:", target):
+            continue  # a URL
+        name, _, anchor = target.partition("#")
+        path = (source.parent / name).resolve() if name else source
+        assert path.exists(), f"{page}: link to {target}: no such file"
+        if anchor:
+            assert anchor in _anchors(path), f"{page}: link to {target}: no such heading"

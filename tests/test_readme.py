@@ -1,7 +1,8 @@
 """Every command in README.md is run by a test (issue 27).
 
 The README's `sh` blocks are read line by line. `python -m addon ...` and `splatline ...`
-lines are run here, in README order, on the real captures under the file names the README
+lines are run here as `python -m addon` (the same command line; tests/test_install.py runs
+the pip-installed `splatline` itself), in README order, on the real captures under the file names the README
 uses (renders at a tiny size and two frames); the `python` block (the bpy snippet) is run on
 a .blend that `import` made. Every other command (`make`, `pip`, `blender`) must be listed in
 COVERED with the test that runs it or the reason nothing here can, and that test must exist.

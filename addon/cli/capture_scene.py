@@ -79,9 +79,10 @@ def use_capture_colours(scene) -> None:
     view.gamma = 1.0
 
 
-def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing()) -> None:
+def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing(), source=None) -> None:
     """Key `camera` (a view or a CameraTrack) on the scene, framing `objects` (splat
-    objects; a track is tied to the first one's frame). frames: (start, end) or None."""
+    objects; a track is tied to the first one's frame). frames: (start, end) or None.
+    source: the first object's file, for messages."""
     from ..blender.data import capture_camera
 
     scene = bpy.context.scene
@@ -92,7 +93,7 @@ def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing()) 
         capture_camera.add_framing_camera(bpy.context, objects, camera, start, end, options.fill,
                                           options.elevation, options.lens, options.fov)
         if camera == "capture":
-            _say_capture_fallback(objects[0])
+            _say_capture_fallback(objects[0], source)
         return
     check_camera_options(camera, options)
     fps = camera.frame_rate  # Blender keeps an integer rate and a divisor
@@ -104,11 +105,11 @@ def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing()) 
                                     scene.frame_start)
 
 
-def _say_capture_fallback(obj) -> None:
+def _say_capture_fallback(obj, source) -> None:
     from ..blender.data.files import object_axes
 
-    print(f"--camera capture: {obj.name} holds no camera (no format Splatline reads stores one): "
-          f"looking along its forward axis ({object_axes(obj)} frame), framed as front is", flush=True)
+    print(f"--camera capture: {source or obj.name} holds no camera (no format Splatline reads stores one): "
+          f"looking along its forward axis ({object_axes(obj)} frame), from as far as the other views", flush=True)
 
 
 def build(bpy, path, camera, frames=None, options: Framing = Framing()):
@@ -125,7 +126,7 @@ def build(bpy, path, camera, frames=None, options: Framing = Framing()):
     scene.render.film_transparent = True  # a bare capture: alpha is the subject's coverage
     use_capture_colours(scene)
     try:
-        add_camera(bpy, [obj], camera, frames, options)
+        add_camera(bpy, [obj], camera, frames, options, path)
     except ValueError as exc:
         raise UserError(f"{path}: cannot frame the capture: {exc}") from None
     return scene

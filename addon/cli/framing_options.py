@@ -31,8 +31,8 @@ CAMERA_HELP = (
     "from the side the capture's camera stood on: guitar.ply's top, strings and pickups); side "
     "(a still view a quarter turn counter-clockwise from front, seen from above); capture (a "
     "still view along the capture's own camera direction, the file's forward axis: +z for "
-    "3DGS/COLMAP PLY; no format Splatline reads stores a camera's position or lens, so it is "
-    "framed as front is). A camera track: a SuperSplat settings.json, an .ssproj or its "
+    "3DGS/COLMAP PLY; no format Splatline reads stores a camera's position or lens, so it stands "
+    "back as the other views do). A camera track: a SuperSplat settings.json, an .ssproj or its "
     "document.json, or {frameRate, frames: [{position, target, fov, up}]}")
 
 

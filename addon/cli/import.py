@@ -88,7 +88,7 @@ def run(args) -> int:
     _apply_effect_presets(bpy, args.effect_preset, imported)
     if bpy.context.scene.camera is None:
         try:
-            add_camera(bpy, imported, camera, frames, args.framing)
+            add_camera(bpy, imported, camera, frames, args.framing, args.files[0])
         except ValueError as exc:
             raise UserError(f"{args.files[0]}: cannot frame the capture: {exc}") from None
     try:

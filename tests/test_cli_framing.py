@@ -275,3 +275,13 @@ def test_framing_limits_match_blender(bpy_empty):
     fps = bpy.types.RenderSettings.bl_rna.properties["fps"]
     assert (fps.hard_min, fps.hard_max) == (fo.MIN_FPS, fo.MAX_FPS)
     assert fo.MAX_FRAME == render.MAX_FRAME
+
+
+def test_fps_and_seconds_on_a_blend(testdata, tmp_path):
+    """--seconds counts from the .blend's own start frame, at --fps or its own rate."""
+    blend = tmp_path / "g.blend"
+    _cli("import", testdata / "guitar.ply", "--blend", blend, "--max-count", "3000", "--camera", "front")
+    out = tmp_path / "out"
+    run = _cli("render", blend, "--out", out, "--resolution", "32x18", "--fps", "12", "--seconds", "0.25")
+    assert sorted(p.name for p in out.iterdir()) == ["frame_0001.png", "frame_0002.png", "frame_0003.png"]
+    assert "rendering 3 frame(s) 1-3" in run.stdout

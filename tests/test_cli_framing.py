@@ -285,3 +285,19 @@ def test_fps_and_seconds_on_a_blend(testdata, tmp_path):
     run = _cli("render", blend, "--out", out, "--resolution", "32x18", "--fps", "12", "--seconds", "0.25")
     assert sorted(p.name for p in out.iterdir()) == ["frame_0001.png", "frame_0002.png", "frame_0003.png"]
     assert "rendering 3 frame(s) 1-3" in run.stdout
+
+
+def test_front_direction_is_the_thin_level_axis_or_the_captures_own():
+    rng = np.random.default_rng(5)
+    up, forward = np.array([0.0, 0.0, 1.0]), np.array([0.3, 1.0, 0.2])  # forward tilted: levelled
+    turn = math.radians(30)
+    thin = np.array([math.cos(turn), math.sin(turn), 0.0])  # the slab's normal, level
+    broad = np.cross(up, thin)
+    slab = rng.normal(size=(20000, 3)) * (0.1, 1.0, 2.0) @ np.stack([thin, broad, up])
+    bounds = framing.robust_bounds(slab)
+    front = framing.front_direction(slab, bounds, up, forward)
+    assert abs(front @ thin) > 0.999 and front @ forward > 0  # from the capture camera's side
+    ball = rng.normal(size=(20000, 3))
+    front = framing.front_direction(ball, framing.robust_bounds(ball), up, forward)
+    level = np.array([0.3, 1.0, 0.0]) / np.linalg.norm([0.3, 1.0, 0.0])
+    np.testing.assert_allclose(front, level, atol=1e-12)  # no broad face: the capture's own

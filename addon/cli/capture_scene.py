@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 
 from . import UsageError, UserError
-from .framing_options import CAMERA_HELP, DEFAULT_FPS, DEFAULT_ORBIT_FRAMES, VIEWS, Framing, set_fps  # noqa: F401
+from .framing_options import DEFAULT_FPS, DEFAULT_ORBIT_FRAMES, VIEWS, Framing, set_fps
 
 CAMERA_MODES = VIEWS
 

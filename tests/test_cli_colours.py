@@ -68,9 +68,9 @@ def test_render_of_a_bare_capture_is_the_reference_frame(bpy_empty, testdata, tm
          "--resolution", f"{WIDTH}x{HEIGHT}")
     png = _premultiplied(tmp_path / "frame_0001.png")
 
+    _set_size(bpy_empty.context.scene)  # first, as the command: the camera is framed for it
     scene = capture_scene.build(bpy_empty, capture, "front")  # the scene the command rendered
     assert _standard(scene) == ("Standard", "None", 0.0, 1.0)
-    _set_size(scene)
     ref = reference_frame(bpy_empty, scene).rgba.astype(np.float64)
     assert 0.02 < (ref[..., 3] > 0.5).mean() < 0.9  # the capture covers part of the frame
     covered = (ref[..., 3] > 1 / 255) | (png[..., 3] > 0)

@@ -3,19 +3,17 @@
 Shared by `render CAPTURE` (which then renders it exactly as it renders a .blend) and
 `import` (which adds the camera when the scene has none, so import-then-render works).
 Both scenes show the capture's own colours (Standard view transform, `use_capture_colours`).
---camera is "orbit" (default), "front", or a camera-track JSON (camtrack.py's shapes).
+--camera is a view (framing_options.VIEWS: orbit by default) or a camera-track JSON
+(camtrack.py's shapes); the other framing flags arrive as a framing_options.Framing.
 """
 from __future__ import annotations
 
 import os
 
-from . import UserError
+from . import UsageError, UserError
+from .framing_options import DEFAULT_FPS, DEFAULT_ORBIT_FRAMES, VIEWS, Framing, set_fps
 
-CAMERA_MODES = ("orbit", "front")
-DEFAULT_ORBIT_FRAMES = 120  # five seconds at 24 fps: one slow turn
-CAMERA_HELP = ("orbit (default: one turn round the capture over the frame range), front (a still "
-               "view from the capture's front), or a camera track: a SuperSplat settings.json, an "
-               ".ssproj or its document.json, or {frameRate, frames: [{position, target, fov, up}]}")
+CAMERA_MODES = VIEWS
 
 
 def is_blend(path) -> bool:
@@ -30,9 +28,12 @@ def is_blend(path) -> bool:
 
 
 def load_camera_arg(text):
-    """'orbit', 'front' or a CameraTrack read from the file (errors name the file)."""
+    """A view name (VIEWS) or a CameraTrack read from the file (errors name the file). A
+    word that is no file and looks like no path is a misspelled view: one line naming them."""
     if text is None or text.lower() in CAMERA_MODES:
         return (text or "orbit").lower()
+    if not os.path.exists(text) and os.sep not in text and "." not in text:
+        raise UsageError(f"--camera {text}: neither a view ({', '.join(VIEWS)}) nor a file")
     from ..core.camtrack import read_track
 
     return read_track(text)  # SplatFormatError: one line naming the file
@@ -40,14 +41,30 @@ def load_camera_arg(text):
 
 def frame_range(camera, frames=None) -> tuple[int, int]:
     """--frames if given, else what the camera needs: the track's span from frame 1, one
-    frame for a front still, DEFAULT_ORBIT_FRAMES for an orbit."""
+    frame for a still view, DEFAULT_ORBIT_FRAMES for an orbit."""
     if frames is not None:
         return frames
-    if camera == "front":
-        return 1, 1
     if camera == "orbit":
         return 1, DEFAULT_ORBIT_FRAMES
+    if isinstance(camera, str):
+        return 1, 1
     return 1, 1 + camera.last_frame
+
+
+def seconds_range(camera, options: Framing, frames=None):
+    """--frames, or --seconds in frames from 1 at --fps, the track's rate or the default
+    24 fps; None when neither is given."""
+    if options.seconds is None:
+        return frames
+    rate = camera.frame_rate if not isinstance(camera, str) else DEFAULT_FPS
+    return 1, options.frame_count(rate)
+
+
+def check_camera_options(camera, options: Framing) -> None:
+    """What the flags cannot do with this camera (before Blender starts)."""
+    if options.fps is not None and not isinstance(camera, str):
+        raise UsageError(f"--fps {options.fps:g}: a camera track keeps its own frame rate "
+                         f"({camera.frame_rate:g} fps)")
 
 
 def use_capture_colours(scene) -> None:
@@ -62,16 +79,23 @@ def use_capture_colours(scene) -> None:
     view.gamma = 1.0
 
 
-def add_camera(bpy, objects, camera, frames=None) -> None:
-    """Key `camera` (a mode or a CameraTrack) on the scene, framing `objects` (splat
-    objects; a track is tied to the first one's frame). frames: (start, end) or None."""
+def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing(), source=None) -> None:
+    """Key `camera` (a view or a CameraTrack) on the scene, framing `objects` (splat
+    objects; a track is tied to the first one's frame). frames: (start, end) or None.
+    source: the first object's file, for messages."""
     from ..blender.data import capture_camera
 
     scene = bpy.context.scene
     if isinstance(camera, str):  # an orbit turns once over the range it is given, or the scene's
+        if options.fps is not None:
+            set_fps(scene, options.fps)
         start, end = frames or (scene.frame_start, scene.frame_end)
-        capture_camera.add_framing_camera(bpy.context, objects, camera, start, end)
+        capture_camera.add_framing_camera(bpy.context, objects, camera, start, end, options.fill,
+                                          options.elevation, options.lens, options.fov)
+        if camera == "capture":
+            _say_capture_fallback(objects[0], source)
         return
+    check_camera_options(camera, options)
     fps = camera.frame_rate  # Blender keeps an integer rate and a divisor
     scene.render.fps = max(1, round(fps))
     scene.render.fps_base = scene.render.fps / fps
@@ -81,7 +105,14 @@ def add_camera(bpy, objects, camera, frames=None) -> None:
                                     scene.frame_start)
 
 
-def build(bpy, path, camera, frames=None):
+def _say_capture_fallback(obj, source) -> None:
+    from ..blender.data.files import object_axes
+
+    print(f"--camera capture: {source or obj.name} holds no camera (no format Splatline reads stores one): "
+          f"looking along its forward axis ({object_axes(obj)} frame), from as far as the other views", flush=True)
+
+
+def build(bpy, path, camera, frames=None, options: Framing = Framing()):
     """Import `path` into the (empty) scene, add the camera; returns the scene."""
     from ..blender.data.files import import_file
     from ..core.errors import SplatFormatError
@@ -95,7 +126,7 @@ def build(bpy, path, camera, frames=None):
     scene.render.film_transparent = True  # a bare capture: alpha is the subject's coverage
     use_capture_colours(scene)
     try:
-        add_camera(bpy, [obj], camera, frames)
+        add_camera(bpy, [obj], camera, frames, options, path)
     except ValueError as exc:
         raise UserError(f"{path}: cannot frame the capture: {exc}") from None
     return scene

@@ -1,7 +1,8 @@
 """python -m addon import FILE... --blend OUT.blend: splat files into a new .blend.
 
-A camera framing the imported captures (--camera, default an orbit over the scene's frame
-range) is added, as the scene has none, so `render OUT.blend` works on the result.
+A camera framing the imported captures (--camera, default an orbit; the framing flags of
+framing_options.py) is added, as the scene has none, so `render OUT.blend` works on the
+result. An orbit's scene runs 1-120 at 24 fps unless --seconds or --fps say otherwise.
 
 Every file is read before anything is saved; the first bad file stops the command with
 one line naming it, and no .blend is written.
@@ -13,7 +14,7 @@ import os
 from ..core.errors import SplatFormatError
 from . import UserError
 from ..core.splats import AXES
-from .capture_scene import CAMERA_HELP
+from . import framing_options
 
 
 def configure(parser):
@@ -37,7 +38,7 @@ def configure(parser):
                         help="apply an effect preset (presets/effects/) to every imported object, "
                              "keyed from the scene's start frame (repeatable); 'morph' needs two "
                              "files and morphs the first into the second")
-    parser.add_argument("--camera", metavar="orbit|front|TRACK.json", help=CAMERA_HELP)
+    framing_options.add_arguments(parser, render=False)
 
 
 def _check_args(args) -> None:
@@ -50,12 +51,17 @@ def _check_args(args) -> None:
         raise UserError(f"{args.blend}: folder {out_dir} does not exist")
     if os.path.isdir(args.blend):
         raise UserError(f"{args.blend}: is a directory")
+    args.framing = framing_options.read(args)
 
 
 def run(args) -> int:
     _check_args(args)
-    from .capture_scene import add_camera, load_camera_arg
+    from .capture_scene import add_camera, check_camera_options, frame_range, load_camera_arg, seconds_range
     camera = load_camera_arg(args.camera)  # a bad track fails before any import
+    check_camera_options(camera, args.framing)
+    frames = seconds_range(camera, args.framing)
+    if frames is None and camera == "orbit":
+        frames = frame_range(camera)
     from .blender_session import start
 
     bpy = start()
@@ -63,6 +69,8 @@ def run(args) -> int:
     from .capture_scene import use_capture_colours
 
     use_capture_colours(bpy.context.scene)  # a new scene: the capture's own colours, not AgX
+    if frames is not None:  # before the effect presets, which key from the start frame
+        bpy.context.scene.frame_start, bpy.context.scene.frame_end = frames
 
     imported = []
     for path in args.files:
@@ -80,7 +88,7 @@ def run(args) -> int:
     _apply_effect_presets(bpy, args.effect_preset, imported)
     if bpy.context.scene.camera is None:
         try:
-            add_camera(bpy, imported, camera)
+            add_camera(bpy, imported, camera, frames, args.framing, args.files[0])
         except ValueError as exc:
             raise UserError(f"{args.files[0]}: cannot frame the capture: {exc}") from None
     try:

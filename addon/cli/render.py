@@ -1,8 +1,10 @@
 """python -m addon render SCENE.blend --out DIR: render a .blend with the Splatline engine.
 
-`render CAPTURE --out DIR [--camera orbit|front|TRACK.json]` renders a bare splat file: it
-is imported as the UI imports it, a camera is added (capture_scene.py), and the scene is
-rendered by the same code as a .blend. Its output defaults to RGBA PNG, its film is transparent.
+`render CAPTURE --out DIR [--camera orbit|capture|front|side|TRACK.json]` renders a bare
+splat file: it is imported as the UI imports it, a camera is added (capture_scene.py; its
+flags: framing_options.py), and the scene is rendered by the same code as a .blend. Its
+output defaults to RGBA PNG, its film is transparent. A movie (MP4) is one file named by
+Blender from the frame range, frame_START-END.mp4 in --out; its path is printed.
 
 Renders through Blender's own animation pipeline (what `blender -b -a` runs), so frame
 step, border, resolution percentage and every output format behave as in Blender.
@@ -27,7 +29,8 @@ import statistics
 import time
 
 from . import UsageError, UserError
-from .capture_scene import CAMERA_HELP, is_blend
+from . import framing_options
+from .capture_scene import is_blend
 from .render_job import render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
@@ -56,10 +59,12 @@ def configure(parser):
     parser.add_argument("blend", metavar="SCENE.blend|CAPTURE",
                         help="the .blend to render, or a splat file (.ply, .spz, .splat, ...) to "
                              "import and render under an added camera")
-    parser.add_argument("--camera", metavar="orbit|front|TRACK.json",
-                        help="for a CAPTURE: " + CAMERA_HELP)
-    parser.add_argument("--out", required=True, metavar="DIR", help="folder for the frames or the movie")
-    parser.add_argument("--frames", metavar="A-B", help="frame range (or one frame); default: the scene's")
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help="folder for the frames (frame_0001.png, ...) or the movie "
+                             "(frame_START-END.mp4, e.g. frame_0001-0120.mp4)")
+    parser.add_argument("--frames", metavar="A-B", help="frame range (or one frame); default: the scene's "
+                                                        "(a capture: see --camera and --seconds)")
+    framing_options.add_arguments(parser)
     parser.add_argument("--step", type=int, metavar="N", help="render every Nth frame; default: the scene's")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--format", type=str.upper, choices=FORMATS,
@@ -174,15 +179,12 @@ def _check_video_size(scene) -> None:
 def _prepare(bpy, args):
     scene = bpy.context.scene
     scene.render.engine = "SPLATLINE"
-    if args.preset:  # first, so that the explicit flags below override it
-        _apply_preset(args.preset)
+    _set_frame_size(scene, args)  # first: its preset's settings yield to the explicit flags
     if args.frames:
         scene.frame_start, scene.frame_end = parse_frames(args.frames)
+    _set_rate_and_length(scene, args.framing)
     if args.step is not None:
         scene.frame_step = args.step
-    if args.resolution:
-        scene.render.resolution_x, scene.render.resolution_y = parse_resolution(args.resolution)
-        scene.render.resolution_percentage = 100
     for option in args.engine_option:
         set_engine_option(scene.splatline.render, option)
     # Meshes: the mesh layer (a scene of the meshes, composited under the splats) set up
@@ -221,6 +223,26 @@ def _use_half(scene, args) -> None:
     image.color_depth = "16"
 
 
+def _set_frame_size(scene, args) -> None:
+    """--preset's and --resolution's frame size (a capture's camera is framed for it)."""
+    if args.preset:  # first, so that --resolution overrides it
+        _apply_preset(args.preset)
+    if args.resolution:
+        scene.render.resolution_x, scene.render.resolution_y = parse_resolution(args.resolution)
+        scene.render.resolution_percentage = 100
+
+
+def _set_rate_and_length(scene, options) -> None:
+    """--fps and --seconds on a .blend (a capture's scene has them already)."""
+    if options.fps is not None:
+        framing_options.set_fps(scene, options.fps)
+    count = options.frame_count(scene.render.fps / scene.render.fps_base)
+    if count is not None:
+        if scene.frame_start + count - 1 > MAX_FRAME:
+            raise UsageError(f"--seconds {options.seconds:g}: ends past frame {MAX_FRAME} (Blender's limit)")
+        scene.frame_end = scene.frame_start + count - 1
+
+
 def _apply_preset(name: str) -> None:
     from ..blender.ops.presets import apply_render_preset
     try:
@@ -253,6 +275,7 @@ def _check_args(args) -> None:
                              "use --format EXR, or drop --half")
     if args.camera is not None and is_blend(args.blend):
         raise UserError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
+    args.framing = framing_options.read(args, for_blend=is_blend(args.blend))
 
 
 def _check_out_creatable(out) -> None:
@@ -273,9 +296,12 @@ def _open_scene(args):
     if not is_blend(args.blend):
         from . import capture_scene
         camera = capture_scene.load_camera_arg(args.camera)
-        bpy = blender_session.start()
+        capture_scene.check_camera_options(camera, args.framing)
         frames = parse_frames(args.frames) if args.frames else None
-        capture_scene.build(bpy, args.blend, camera, frames)
+        frames = capture_scene.seconds_range(camera, args.framing, frames)
+        bpy = blender_session.start()
+        _set_frame_size(bpy.context.scene, args)  # the framing fits the frame's aspect
+        capture_scene.build(bpy, args.blend, camera, frames, args.framing)
         if not args.format and not args.preset:
             args.format = "PNG"  # the factory scene's output would be an opaque 8-bit RGB
         return bpy
@@ -299,4 +325,7 @@ def run(args) -> int:
     median = statistics.median(times) if times else 0.0
     print(f"done: {len(times)} frame(s) in {time.perf_counter() - start:.2f} s, "
           f"median {median:.3f} s per frame", flush=True)
+    if times and media_type(scene.render.image_settings) == "VIDEO":
+        # Blender names the movie from the range: frame_0001-0120.mp4 for frame_#### over 1-120
+        print(f"wrote {scene.render.frame_path(frame=scene.frame_start)}", flush=True)
     return 0

@@ -1,17 +1,20 @@
-"""Default cameras for a bare capture: robust bounds, a front view and an orbit.
+"""Default cameras for a bare capture: robust bounds, front and side views and an orbit.
 
-A capture's own frame decides what "up" and "front" mean: its up is the file's up axis
-(-y for the RDF frame of 3DGS/COLMAP files, +y for RUB, +z for RFU) and its forward is the
-direction its reference camera looked (+z in RDF, -z in RUB, +y in RFU). The front view
-stands behind that camera's position and looks along forward, with the capture's up. For an
-RDF capture imported with Splatline's axis rotation that is Blender's Front view (-Y,
-looking +Y, z up). The orbit starts at the front view, lifted by ELEVATION_DEG, and turns
-once about the capture's up axis over the frame range, counter-clockwise seen from above.
+A capture's own frame decides what "up" means: the file's up axis (-y for the RDF frame of
+3DGS/COLMAP files, +y for RUB, +z for RFU). Its forward is the direction its reference
+camera looked (+z in RDF, -z in RUB, +y in RFU); that camera often stood off to the
+subject's side (guitar.ply's looks at the guitar's edge), so "front" is the subject's own:
+the front view looks level, across the subject's broad face (front_direction: the
+horizontal axis along which the centres spread least), from the side the capture's camera
+stood on. The side view stands a quarter turn counter-clockwise from it (seen from above).
+The capture view looks along the capture's forward, levelled. The orbit starts at the
+front view, lifted by ELEVATION_DEG, and turns once about up.
 
 Bounds come from the 2nd and 98th percentiles of the world-space centres, so a few
 floaters far from the subject neither shrink it (by pushing the camera away) nor move the
-point looked at. The camera is distant enough that the sphere around those bounds (with a
-margin for the tips the percentiles trim) fits the narrower side of the frame.
+point looked at. fill_distance puts the camera where the bounds' projected box spans FILL
+of the frame's shorter side (in the widest frame of an orbit); fit_distance is the older,
+looser fit of the sphere round the box, which left a compact subject at under half the frame.
 """
 from __future__ import annotations
 
@@ -26,7 +29,10 @@ from .camera import look_at
 LOW_PERCENTILE, HIGH_PERCENTILE = 2.0, 98.0
 MARGIN = 1.15  # the percentile box trims the subject's tips (a guitar's headstock): give them room
 ELEVATION_DEG = 20.0  # above the horizon: a look slightly down reads as "in front of it"
-MODES = ("orbit", "front")
+FILL = 0.8  # of the frame's shorter side: room round the subject, its trimmed tips inside
+MODES = ("orbit", "capture", "front", "side")
+ORBIT_SAMPLES = 720  # azimuths the orbit's fit checks (frames fall within 0.25 degrees of one)
+ISOTROPIC = 0.95  # horizontal spreads closer than this ratio: no broad face to call front
 
 
 @dataclass(frozen=True)
@@ -83,22 +89,110 @@ def fit_box_distance(bounds: Bounds, tan_half_x: float, tan_half_y: float) -> fl
     return max(width / 2 / tan_half_x, height / 2 / tan_half_y) + width / 2
 
 
-def front_pose(bounds: Bounds, up, forward, distance: float) -> np.ndarray:
-    """Camera-to-world matrix of the front view."""
-    return _pose_at(bounds, up, forward, distance, 0.0, 0.0)
+def front_direction(points_world, bounds: Bounds, up, forward) -> np.ndarray:
+    """The level direction the front view looks along: the eigenvector of least spread of
+    the centres inside the bounds, in the plane level with up, signed to point the way the
+    capture's camera looked. A subject with no broad face (spreads within ISOTROPIC) keeps
+    the capture camera's own direction, levelled."""
+    up = np.asarray(up, np.float64)
+    ahead = _level(up, forward)
+    across = np.cross(up, ahead)
+    pts = np.asarray(points_world, np.float64).reshape(-1, 3)
+    inside = pts[np.all((pts >= bounds.low) & (pts <= bounds.high), axis=1)] - bounds.centre
+    if len(inside) < 3:
+        return ahead
+    values, vectors = np.linalg.eigh(np.cov(np.stack([inside @ ahead, inside @ across])))
+    if values[1] <= 0.0 or math.sqrt(max(values[0], 0.0) / values[1]) > ISOTROPIC:
+        return ahead
+    a, b = vectors[:, 0]
+    direction = a * ahead + b * across
+    return direction if a >= 0.0 else -direction
 
 
-def orbit_poses(bounds: Bounds, up, forward, distance: float, count: int) -> list:
+def view_azimuth(view: str) -> float:
+    """Where a still view stands, turned from the front view about up."""
+    return {"capture": 0.0, "front": 0.0, "side": 0.5 * math.pi}[view]
+
+
+def front_pose(bounds: Bounds, up, forward, distance: float, elevation_deg: float = 0.0,
+               azimuth: float = 0.0) -> np.ndarray:
+    """Camera-to-world matrix of a still view: the front view (forward from
+    front_direction), or one turned by `azimuth` about up (view_azimuth), raised by
+    `elevation_deg`."""
+    return _pose_at(bounds, up, forward, distance, azimuth, math.radians(elevation_deg))
+
+
+def orbit_poses(bounds: Bounds, up, forward, distance: float, count: int,
+                elevation_deg: float = ELEVATION_DEG) -> list:
     """`count` camera-to-world matrices, one a frame, evenly round a full turn (the turn's
     end is the next loop's start, so a looped render does not repeat a frame)."""
     return [_pose_at(bounds, up, forward, distance, 2.0 * math.pi * i / count,
-                     math.radians(ELEVATION_DEG)) for i in range(count)]
+                     math.radians(elevation_deg)) for i in range(count)]
+
+
+def orbit_azimuths() -> np.ndarray:
+    return np.linspace(0.0, 2.0 * math.pi, ORBIT_SAMPLES, endpoint=False)
+
+
+def box_corners(bounds: Bounds) -> np.ndarray:
+    """The percentile box's eight corners, (8, 3)."""
+    return np.array([[x, y, z] for x in (bounds.low[0], bounds.high[0])
+                     for y in (bounds.low[1], bounds.high[1]) for z in (bounds.low[2], bounds.high[2])])
+
+
+def frame_fill(points, pose, tan_half_x: float, tan_half_y: float) -> float:
+    """The larger side of the points' projected bounding rectangle, as a fraction of the
+    frame's shorter side, seen from camera-to-world `pose`; inf if one is not in front."""
+    local = (np.asarray(points, np.float64) - pose[:3, 3]) @ pose[:3, :3]
+    return float(_fill(local[None], tan_half_x, tan_half_y)[0])
+
+
+def fill_distance(bounds: Bounds, up, forward, tan_half_x: float, tan_half_y: float,
+                  fill: float = FILL, elevation_deg: float = ELEVATION_DEG, azimuths=(0.0,)) -> float:
+    """Centre-to-camera distance at which the projected percentile box spans `fill` of the
+    frame's shorter side in the widest of the views at `azimuths` (a still view: one; an
+    orbit: orbit_azimuths()). Found by bisection: the fill shrinks as the camera backs away.
+    Never nearer than the box's own corners."""
+    corners = box_corners(bounds) - bounds.centre
+    # Camera-frame corners at distance 0: the view's rotation does not depend on distance, and
+    # backing away by d only moves every corner d further along the camera's -z.
+    views = np.stack([_pose_at(bounds, up, forward, 1.0, a, math.radians(elevation_deg))[:3, :3]
+                      for a in azimuths])
+    local = np.einsum("pj,vjk->vpk", corners, views)
+
+    def widest(distance):
+        return float(_fill(local - (0.0, 0.0, distance), tan_half_x, tan_half_y).max())
+
+    near = 1.001 * max(0.5 * bounds.size, 1e-3)
+    if widest(near) <= fill:  # a very wide lens: the closest the camera may stand
+        return near
+    far = 2.0 * near
+    while widest(far) > fill:
+        far *= 2.0
+    for _ in range(60):
+        middle = 0.5 * (near + far)
+        near, far = (middle, far) if widest(middle) > fill else (near, middle)
+    return far
+
+
+def _fill(local, tan_half_x, tan_half_y) -> np.ndarray:
+    """frame_fill of each view's camera-frame points, local (views, points, 3)."""
+    depth = -local[..., 2]  # a Blender camera looks down its -z
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x, y = local[..., 0] / depth, local[..., 1] / depth
+    spans = np.maximum(np.ptp(x, axis=1), np.ptp(y, axis=1)) / (2.0 * min(tan_half_x, tan_half_y))
+    return np.where((depth > 0.0).all(axis=1), spans, np.inf)
+
+
+def _level(up, forward) -> np.ndarray:
+    """forward in the horizon plane of up, unit length."""
+    up, forward = np.asarray(up, np.float64), np.asarray(forward, np.float64)
+    forward = forward - up * float(forward @ up)
+    return forward / np.linalg.norm(forward)
 
 
 def _pose_at(bounds, up, forward, distance, azimuth, elevation) -> np.ndarray:
-    up, forward = np.asarray(up, np.float64), np.asarray(forward, np.float64)
-    forward = forward - up * float(forward @ up)  # level the view: forward in the horizon plane
-    forward /= np.linalg.norm(forward)
+    up, forward = np.asarray(up, np.float64), _level(up, forward)
     side = np.cross(up, forward)  # a quarter turn counter-clockwise about up
     back = -(forward * math.cos(azimuth) + side * math.sin(azimuth))
     direction = back * math.cos(elevation) + up * math.sin(elevation)

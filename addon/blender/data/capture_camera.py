@@ -1,4 +1,4 @@
-"""Cameras for splat objects: an orbit or front framing, or a SuperSplat camera track.
+"""Cameras for splat objects: an orbit, front or side framing, or a SuperSplat camera track.
 
 Thin: the framing math and the track reader live in core (framing.py, camtrack.py); this
 module turns their matrices into a keyed Blender camera. Each key sets matrix_world and
@@ -50,25 +50,41 @@ def _tan_halves(scene, data) -> tuple[float, float]:
     return (larger, larger * height / width) if width >= height else (larger * width / height, larger)
 
 
-def add_framing_camera(context, objects, mode="orbit", frame_start=None, frame_end=None):
-    """A camera framing `objects` (splat objects): "orbit" keys one full turn over the frame
-    range, a key a frame; "front" is one still key. Returns the camera object."""
+def add_framing_camera(context, objects, mode="orbit", frame_start=None, frame_end=None,
+                       fill=framing.FILL, elevation=None, lens=None, fov=None):
+    """A camera framing `objects` (splat objects) so their robust bounds span `fill` of the
+    frame's shorter side: "orbit" keys one full turn over the frame range, a key a frame;
+    "capture", "front" and "side" are one still key (core/framing.py says what they mean).
+    elevation: degrees above the capture's horizon (default: ELEVATION_DEG for the orbit,
+    level for a still view); lens (mm) or fov (degrees, across the frame's longer side):
+    default LENS_MM. Returns the camera object."""
     if mode not in framing.MODES:
         raise ValueError(f"camera mode {mode!r} is not one of {framing.MODES}")
     scene = context.scene
     context.view_layer.update()  # matrix_world of freshly imported objects
     start = scene.frame_start if frame_start is None else frame_start
     end = scene.frame_end if frame_end is None else frame_end
-    bounds = framing.robust_bounds(splat_world_points(objects))
-    up, forward = framing.capture_axes(object_axes(objects[0]), np.array(objects[0].matrix_world))
+    points = splat_world_points(objects)
+    bounds = framing.robust_bounds(points)
+    up, ahead = framing.capture_axes(object_axes(objects[0]), np.array(objects[0].matrix_world))
+    forward = ahead if mode == "capture" else framing.front_direction(points, bounds, up, ahead)
     camera = new_camera(scene)
-    distance = framing.fit_distance(bounds, *_tan_halves(scene, camera.data))
+    if lens is not None:
+        camera.data.lens = lens
+    if fov is not None:
+        camera.data.angle = math.radians(fov)  # sensor fit AUTO: the longer side's field
+    if elevation is None:
+        elevation = framing.ELEVATION_DEG if mode == "orbit" else 0.0
+    azimuths = framing.orbit_azimuths() if mode == "orbit" else (framing.view_azimuth(mode),)
+    distance = framing.fill_distance(bounds, up, forward, *_tan_halves(scene, camera.data),
+                                     fill, elevation, azimuths)
     camera.data.clip_start, camera.data.clip_end = framing.clip_range(bounds, distance)
-    if mode == "front":
-        poses = [(start, framing.front_pose(bounds, up, forward, distance))]
-    else:
+    if mode == "orbit":
         count = end - start + 1
-        poses = list(zip(range(start, end + 1), framing.orbit_poses(bounds, up, forward, distance, count)))
+        poses = list(zip(range(start, end + 1),
+                         framing.orbit_poses(bounds, up, forward, distance, count, elevation)))
+    else:
+        poses = [(start, framing.front_pose(bounds, up, forward, distance, elevation, azimuths[0]))]
     key_poses(camera, poses)
     set_interpolation(camera, "LINEAR")  # a key a frame needs no easing between keys
     return camera

@@ -180,3 +180,37 @@ def test_every_kinds_flags_match_its_kernel_on_a_real_capture(bpy_empty, testdat
         assert (early.key != late.key) == kind.depends_on_time
     assert moved == kind.moves_splats, f"{kind_id}: moves_splats={kind.moves_splats} but moved={moved}"
     assert timed == kind.depends_on_time, f"{kind_id}: depends_on_time={kind.depends_on_time}"
+
+
+# -- the property group is the table ------------------------------------------------------
+_RNA_TYPES = {"FLOAT": "FLOAT", "INT": "INT", "BOOL": "BOOLEAN", "ENUM": "ENUM", "COLOR": "FLOAT",
+              "SPLATS": "POINTER"}
+
+
+def test_the_effect_property_group_is_built_from_the_table(_bpy_registered):
+    """Every field is one property (animatable but for object pointers) of its declared type, label, default and
+    options, and the type menu is the table; the values saved files hold never move."""
+    from addon.blender.props.effect import Effect
+
+    props = Effect.bl_rna.properties
+    assert {(i.identifier, i.value) for i in props["type"].enum_items} == \
+        {(k.id, k.number) for k in KINDS.values()}
+    assert {k.id: k.number for k in KINDS.values()} == {
+        "REVEAL": 0, "DISPLACE": 1, "EXPLODE": 2, "TWIST": 3, "GRADE": 4, "MORPH": 5}
+    fields = registry.all_fields()
+    own = {p.identifier for p in props} - {"rna_type", "name", "type", "enabled", "amount", "gizmo"}
+    assert own == {f.name for f in fields}
+    for f in fields:
+        prop = props[f.name]
+        assert (prop.type, prop.name, prop.description) == (_RNA_TYPES[f.type], f.label, f.description)
+        assert prop.is_animatable == (f.type != "SPLATS"), f.name  # object pointers never are
+        if f.type == "ENUM":
+            assert [(i.identifier, i.name, i.description) for i in prop.enum_items] == list(f.items)
+        elif f.type == "COLOR":
+            assert prop.subtype == "COLOR" and tuple(prop.default_array) == pytest.approx(f.default)
+        elif f.type != "SPLATS":
+            assert prop.default == pytest.approx(f.default), f.name
+        for option, value in f.options.items():
+            rna = {"min": "hard_min", "max": "hard_max"}.get(option, option)
+            assert getattr(prop, rna) == pytest.approx(value) if isinstance(value, float) \
+                else getattr(prop, rna) == value, (f.name, option)

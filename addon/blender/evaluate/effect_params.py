@@ -19,7 +19,7 @@ from ...core.effects.morph import MorphCache
 from ..data.animation import channel_fcurves
 from ..data.pointcloud import is_splat_object
 
-MORPH = MorphCache()
+TARGETS = MorphCache()  # SPLATS fields' splats, mapped and paired (cleared by items' handlers)
 
 
 def evaluated(obj, depsgraph):
@@ -157,7 +157,7 @@ def _splats(obj, depsgraph, world, source, source_key, splats_of):
         return None, None
     target_splats, target_key = splats_of(target, depsgraph)
     relative = relative_to(world, world_matrix(target, depsgraph))
-    mapped = MORPH.target(source, source_key, target_splats, target_key, relative)
+    mapped = TARGETS.target(source, source_key, target_splats, target_key, relative)
     return mapped, (target_key, relative.tobytes())
 
 

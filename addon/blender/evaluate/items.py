@@ -211,7 +211,7 @@ def _on_depsgraph_update(_scene, depsgraph):
 @bpy.app.handlers.persistent
 def _on_load(*_args):
     _BASE.clear()
-    effect_params.MORPH.clear()
+    effect_params.TARGETS.clear()
 
 
 _HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _on_depsgraph_update),

@@ -82,7 +82,8 @@ def test_a_throwaway_effect_is_offered_from_its_description(with_bob):
     assert FIELDS["TEST_BOB"] == ("bob_lift", "bob_rate")
     lift = bpy.types.Object.bl_rna.properties["splatline"].fixed_type.properties["effects"] \
         .fixed_type.properties["bob_lift"]
-    assert (lift.name, lift.default, lift.hard_min, lift.is_animatable) == ("Lift", pytest.approx(0.2), 0.0, True)
+    assert (lift.name, lift.default, lift.hard_min, lift.is_animatable) == \
+        ("Lift", pytest.approx(0.2), 0.0, True)
 
 
 def test_a_throwaway_effect_is_evaluated_cached_and_invalidated(with_bob, testdata, renderer):
@@ -103,6 +104,7 @@ def test_a_throwaway_effect_is_evaluated_cached_and_invalidated(with_bob, testda
     uploads = renderer.stats["geometry_uploads"]
     b = item_at(bpy, obj.name_full, 12)
     assert (b.key, b.positions_key) == (a.key, a.positions_key)
+    assert b.splats.sh_rest is a.splats.sh_rest  # the base splats came from the cache
     renderer.render([b], cam)
     assert renderer.stats["geometry_uploads"] == uploads
 
@@ -189,8 +191,9 @@ _RNA_TYPES = {"FLOAT": "FLOAT", "INT": "INT", "BOOL": "BOOLEAN", "ENUM": "ENUM",
 
 
 def test_the_effect_property_group_is_built_from_the_table(_bpy_registered):
-    """Every field is one property (animatable but for object pointers) of its declared type, label, default and
-    options, and the type menu is the table; the values saved files hold never move."""
+    """Every field is one property (animatable but for object pointers) of its declared type,
+    label, default and options, and the type menu is the table; the values saved files hold
+    never move."""
     from addon.blender.props.effect import Effect
 
     props = Effect.bl_rna.properties

@@ -3,8 +3,9 @@
 `stack` is the one place the stack is built: each active item's kind (core.effects.registry)
 says which fields to read, how they become the kernel's params, and whether the frame's
 cache key must hold the time (depends_on_time) and its positions key the effect
-(moves_splats). Gizmo frames: an Empty's matrix relative to the splat object; without one, world-aligned
-axes at the object's origin (so a plane's 'height' is world Z and units are world units).
+(moves_splats). Gizmo frames: an Empty's matrix relative to the splat object; without one,
+world-aligned axes at the object's origin (so a plane's 'height' is world Z and units are
+world units).
 A SPLATS field (a morph target) is the other object's base splats mapped into the source
 object's space and paired with the source's splats (cached: core.effects.morph.MorphCache).
 """
@@ -142,7 +143,7 @@ def _values(effect, kind, where):
         if f.type == "COLOR":
             value = tuple(value)
         elif f.type == "SPLATS":
-            value, key = _splats(value, *where) if value is not None else (None, None)
+            value, key = _splats(value, *where)
             if value is None:
                 return None
             extra += key

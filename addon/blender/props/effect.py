@@ -19,6 +19,7 @@ from .look import tag_eval
 TYPES: list = []
 FIELDS: dict = {}
 
+
 def _is_empty(_self, obj):
     return obj.type == "EMPTY"
 
@@ -50,7 +51,8 @@ def _common_properties() -> dict:
         "type": EnumProperty(name="Type", items=TYPES, default="REVEAL", update=tag_eval),
         "enabled": BoolProperty(name="Enabled", default=True, update=tag_eval),
         "amount": FloatProperty(name="Blend", default=1.0, min=0.0, max=1.0, subtype="FACTOR",
-                                update=tag_eval, description="How much of the effect (Morph: the morph factor)"),
+                                update=tag_eval,
+                                description="How much of the effect (Morph: the morph factor)"),
         "gizmo": PointerProperty(name="Gizmo", type=bpy.types.Object, poll=_is_empty, update=tag_eval,
                                  description="Empty whose transform places the plane/sphere/centre/axis "
                                              "(default: world-aligned at the object's origin)"),

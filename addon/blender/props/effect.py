@@ -59,8 +59,10 @@ def _common_properties() -> dict:
     }
 
 
+# Its properties are set by refresh(), from the effect table, before it registers (a comment,
+# not a docstring: Blender would show one as the group's description).
 class Effect(bpy.types.PropertyGroup):
-    """Its properties are set by refresh(), from the effect table, before it registers."""
+    pass
 
 
 def refresh() -> None:

@@ -32,6 +32,7 @@ if GPU_BACKEND == "OPENGL":
 # Blender version is tested on (the Makefile's GPU_BACKENDS). test_gpu_backend.py checks
 # this list against what the test files use.
 GPU_MODULE_TESTS = frozenset({
+    "test_effects_kinds.py",
     "test_engine_gpu.py",
     "test_engine_paths.py",
     "test_footprint.py",

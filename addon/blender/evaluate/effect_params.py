@@ -1,8 +1,13 @@
-"""Blender effect items -> core effect parameters, at one frame of one depsgraph.
+"""Blender effect items -> the core effect stack, at one frame of one depsgraph.
 
-Gizmo frames: an Empty's matrix relative to the splat object; without one, world-aligned
-axes at the object's origin (so a plane's 'height' is world Z and units are world units).
-Morph targets are the target object's base splats mapped into the source object's space.
+`stack` is the one place the stack is built: each active item's kind (core.effects.registry)
+says which fields to read, how they become the kernel's params, and whether the frame's
+cache key must hold the time (depends_on_time) and its positions key the effect
+(moves_splats). Gizmo frames: an Empty's matrix relative to the splat object; without one,
+world-aligned axes at the object's origin (so a plane's 'height' is world Z and units are
+world units).
+A SPLATS field (a morph target) is the other object's base splats mapped into the source
+object's space and paired with the source's splats (cached: core.effects.morph.MorphCache).
 """
 from __future__ import annotations
 
@@ -11,10 +16,11 @@ import dataclasses
 import numpy as np
 
 from ...core import effects as fx
+from ...core.effects.morph import MorphCache
 from ..data.animation import channel_fcurves
+from ..data.pointcloud import is_splat_object
 
-POSITION_TYPES = {"DISPLACE", "EXPLODE", "TWIST", "MORPH"}
-TIME_TYPES = {"DISPLACE", "EXPLODE"}  # the others depend on time only through keyframes
+TARGETS = MorphCache()  # SPLATS fields' splats, mapped and paired (cleared by items' handlers)
 
 
 def evaluated(obj, depsgraph):
@@ -96,49 +102,75 @@ def field_frame(world: np.ndarray, gizmo_world=None) -> np.ndarray:
     return relative_to(world, gizmo_world)
 
 
-def _stops(effect):
-    stops = [(0.0, tuple(effect.color_a)), (1.0, tuple(effect.color_b))]
-    if effect.use_color_mid:
-        stops.insert(1, (float(effect.mid_position), tuple(effect.color_mid)))
-    return tuple(stops)
+@dataclasses.dataclass
+class EffectStack:
+    params: list        # core params of the active effects, top of the stack first
+    signature: tuple    # one per active effect; the time only where it depends on it
+    moving: tuple       # the signatures of those that move splats
 
 
-def build(effect, frame: np.ndarray, fps: float, morph_target=None):
-    """Core params for one enabled effect item (morph_target: (SplatSet, Pairing) or None)."""
-    common = dict(enabled=bool(effect.enabled), amount=float(effect.amount), frame=frame)
-    kind = effect.type
-    if kind == "REVEAL":
-        return fx.Reveal(**common, shape=effect.reveal_shape, progress=effect.progress,
-                         width=effect.edge_width, invert=effect.invert, shrink=effect.shrink,
-                         glow_color=tuple(effect.glow_color), glow_strength=effect.glow_strength,
-                         frequency=effect.frequency, seed=effect.seed)
-    if kind == "DISPLACE":
-        return fx.Displace(**common, amplitude=effect.amplitude, frequency=effect.frequency,
-                           speed=effect.speed, seed=effect.seed)
-    if kind == "EXPLODE":
-        return fx.Explode(**common, mode=effect.explode_mode, strength=effect.strength,
-                          spread=effect.spread, spin=effect.spin, gravity=effect.gravity,
-                          start=effect.start_frame / fps, fade=effect.fade, seed=effect.seed)
-    if kind == "TWIST":
-        return fx.Twist(**common, twist=effect.twist, swirl=effect.swirl, radius=effect.swirl_radius)
-    if kind == "GRADE":
-        return fx.Grade(**common, field=effect.grade_field, stops=_stops(effect),
-                        low=effect.range_low, high=effect.range_high, mode=effect.grade_mode,
-                        frequency=effect.frequency, seed=effect.seed)
-    if kind == "MORPH":
-        target, pairing = morph_target if morph_target is not None else (None, None)
-        return fx.Morph(**common, target=target, pairing=pairing)
-    raise ValueError(f"unknown effect type {kind!r}")
+def stack(obj_eval, depsgraph, world, time: float, fps: float, source, source_key,
+          splats_of) -> EffectStack:
+    """The active effects of obj_eval at the depsgraph's frame. source/source_key: the splats
+    the stack starts from; splats_of(obj_eval, depsgraph) -> (SplatSet, key) reads another
+    object's base splats (for SPLATS fields). An effect whose SPLATS field holds no splat
+    object is left out."""
+    params, signatures, moving = [], [], []
+    for effect in obj_eval.splatline.effects:
+        if not effect.enabled or effect.amount <= 0.0:
+            continue
+        kind = fx.KINDS[effect.type]
+        frame = gizmo_frame(effect, world, depsgraph)
+        read = _values(effect, kind, (depsgraph, world, source, source_key, splats_of))
+        if read is None:
+            continue
+        values, extra = read
+        params.append(kind.make(values, fps, enabled=bool(effect.enabled),
+                                amount=float(effect.amount), frame=frame))
+        if kind.depends_on_time:
+            extra += (time,)
+        signatures.append(signature(params[-1], kind, extra))
+        if kind.moves_splats:
+            moving.append(signatures[-1])
+    return EffectStack(params, tuple(signatures), tuple(moving))
 
 
-def signature(params, extra=()) -> tuple:
+def _values(effect, kind, where):
+    """({field name: value}, key of what SPLATS fields read) of one item, or None."""
+    values, extra = {}, ()
+    for f in kind.fields:
+        value = getattr(effect, f.name)
+        if f.type == "COLOR":
+            value = tuple(value)
+        elif f.type == "SPLATS":
+            value, key = _splats(value, *where)
+            if value is None:
+                return None
+            extra += key
+        values[f.name] = value
+    return values, extra
+
+
+def _splats(obj, depsgraph, world, source, source_key, splats_of):
+    """((obj's splats in the source's space, their pairing), key), or (None, None)."""
+    target = evaluated(obj, depsgraph)
+    if target is None or not is_splat_object(target):
+        return None, None
+    target_splats, target_key = splats_of(target, depsgraph)
+    relative = relative_to(world, world_matrix(target, depsgraph))
+    mapped = TARGETS.target(source, source_key, target_splats, target_key, relative)
+    return mapped, (target_key, relative.tobytes())
+
+
+def signature(params, kind, extra=()) -> tuple:
     """Everything an effect's output depends on besides the input splats and time: the
     fields of the core parameters the kernel reads (not the panel's property list, which
     can miss a derived value such as Explode's start in seconds = start frame / fps).
-    A morph's target and pairing are identified by `extra` (target key, relative matrix)."""
+    The kind's opaque params (a morph's target and pairing) are identified by `extra`
+    (target key, relative matrix)."""
     values = [type(params).__name__]
     for spec in dataclasses.fields(params):
-        if spec.name in ("target", "pairing"):
+        if spec.name in kind.opaque:
             continue
         value = getattr(params, spec.name)
         values.append(value.tobytes() if isinstance(value, np.ndarray) else value)

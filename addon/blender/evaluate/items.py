@@ -20,7 +20,6 @@ import bpy
 
 from ...core import look as core_look
 from ...core.effects import evaluate_stack
-from ...core.effects.morph import MorphCache
 from ...core.scene import RenderItem
 from . import effect_params
 from ..registration import app_handlers
@@ -128,7 +127,6 @@ class BaseCache:
 
 
 _BASE = BaseCache()
-_MORPH = MorphCache()
 
 
 def base_splats(obj_eval, depsgraph):
@@ -159,32 +157,6 @@ def _crop(look):
     return box, sphere
 
 
-def _effect_stack(obj_eval, depsgraph, world, fps, time, source, source_key):
-    """(core params list, signature of all active effects, of the position-changing ones).
-    A signature holds the time only where an effect depends on it directly."""
-    stack, signature, moving = [], [], []
-    for effect in obj_eval.splatline.effects:
-        if not effect.enabled or effect.amount <= 0.0:
-            continue
-        frame = effect_params.gizmo_frame(effect, world, depsgraph)
-        morph, extra = None, ()
-        if effect.type == "MORPH":
-            target = effect_params.evaluated(effect.target, depsgraph)
-            if target is None or not is_splat_object(target):
-                continue
-            target_splats, target_key = base_splats(target, depsgraph)
-            relative = effect_params.relative_to(world, effect_params.world_matrix(target, depsgraph))
-            morph = _MORPH.target(source, source_key, target_splats, target_key, relative)
-            extra = (target_key, relative.tobytes())
-        stack.append(effect_params.build(effect, frame, fps, morph))
-        if effect.type in effect_params.TIME_TYPES:
-            extra += (time,)
-        signature.append(effect_params.signature(stack[-1], extra))
-        if effect.type in effect_params.POSITION_TYPES:
-            moving.append(signature[-1])
-    return stack, tuple(signature), tuple(moving)
-
-
 def item_for(obj_eval, depsgraph=None) -> RenderItem:
     """The RenderItem of one evaluated splat object.
 
@@ -206,13 +178,13 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     box, sphere = _crop(look)
     splats = core_look.apply_crop(base, box, sphere)
     time, fps = scene_time(depsgraph)
-    stack, signature, moving = _effect_stack(obj_eval, depsgraph, world, fps, time, splats,
-                                             base_key)
-    result = evaluate_stack(splats, stack, time)
+    effects = effect_params.stack(obj_eval, depsgraph, world, time, fps, splats, base_key,
+                                  base_splats)
+    result = evaluate_stack(splats, effects.params, time)
     key = (name, base_key)
     if result.splats is not base:
-        key = (name, base_key, (box, sphere), signature)
-    positions_key = (name, base_key, moving) if result.positions_changed else (name, base_key)
+        key = (name, base_key, (box, sphere), effects.signature)
+    positions_key = (name, base_key, effects.moving) if result.positions_changed else (name, base_key)
     return RenderItem(
         splats=replace(result.splats), world=world, splat_scale=float(look.size),
         opacity_scale=float(look.opacity) if look.visible else 0.0, sh_degree=int(look.max_sh_degree),
@@ -239,7 +211,7 @@ def _on_depsgraph_update(_scene, depsgraph):
 @bpy.app.handlers.persistent
 def _on_load(*_args):
     _BASE.clear()
-    _MORPH.clear()
+    effect_params.TARGETS.clear()
 
 
 _HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _on_depsgraph_update),

@@ -28,6 +28,7 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(
 
 
 def register():
+    effect_props.refresh()  # effects added to the table since import get their properties
     _register_classes()
     bpy.types.Object.splatline = bpy.props.PointerProperty(type=SplatlineObjectSettings)
     bpy.types.Scene.splatline = bpy.props.PointerProperty(type=SplatlineSceneSettings)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .common import F32, EffectParams
+from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import field
 
 
@@ -62,3 +63,14 @@ def apply(splats, p: Displace, time: float = 0.0, rest=None):
         noise[axis] *= gain
         np.add(splats.positions[:, axis], noise[axis], out=positions[:, axis])
     return replace(splats, positions=positions)
+
+
+KIND = EffectKind(
+    "DISPLACE", 1, "Displace", "Seeded smooth noise displacement, continuous in time", "MOD_NOISE",
+    Displace, apply, moves_splats=True, depends_on_time=True, fields=(
+        Field("amplitude", "FLOAT", "Amplitude", 0.1,
+              options={"soft_min": 0.0, "soft_max": 2.0, "unit": "LENGTH"}),
+        FREQUENCY,
+        Field("speed", "FLOAT", "Speed", 0.5, "Noise cells per second the field drifts",
+              options={"soft_min": -5.0, "soft_max": 5.0}),
+        SEED))

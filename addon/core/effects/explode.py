@@ -15,6 +15,7 @@ import numpy as np
 from .. import quaternion
 from .common import (F32, EffectParams, blocks, frame_axis, frame_origin, join,
                      per_splat_random, split, unit_columns)
+from .kind import SEED, EffectKind, Field
 
 MODES = ("CENTER", "DIRECTION")
 
@@ -91,3 +92,23 @@ def apply(splats, p: Explode, time: float = 0.0, rest=None):
         keep = 1.0 - p.amount * (1.0 - np.exp(-p.fade * tau))
         changes["opacities"] = splats.opacities * F32(keep)
     return replace(splats, **changes)
+
+
+KIND = EffectKind(
+    "EXPLODE", 2, "Explode/Scatter", "Splats fly away from a centre or along a direction",
+    "MOD_EXPLODE", Explode, apply, moves_splats=True, depends_on_time=True, fields=(
+        Field("explode_mode", "ENUM", "Mode", param="mode", items=(
+            ("CENTER", "From Centre", "Away from the gizmo's origin"),
+            ("DIRECTION", "Direction", "Along the gizmo's Z"))),
+        Field("strength", "FLOAT", "Speed", 1.0, "Object units per second",
+              options={"soft_min": 0.0, "soft_max": 10.0}),
+        Field("spread", "FLOAT", "Spread", 0.3, options={"min": 0.0, "soft_max": 3.0}),
+        Field("spin", "FLOAT", "Spin", 0.0, "Radians per second about a random axis",
+              options={"soft_min": -20.0, "soft_max": 20.0}),
+        Field("gravity", "FLOAT", "Gravity", 0.0, "Units per second squared along the gizmo's -Z",
+              options={"soft_min": -20.0, "soft_max": 20.0}),
+        Field("start_frame", "FLOAT", "Start Frame", 1.0, derived=True),
+        Field("fade", "FLOAT", "Fade", 0.0, "Opacity decay per second after the start",
+              options={"min": 0.0, "soft_max": 5.0}),
+        SEED),
+    derive=lambda values, fps: {"start": values["start_frame"] / fps})

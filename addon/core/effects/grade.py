@@ -14,6 +14,7 @@ import numpy as np
 
 from ..sh import C0
 from .common import F32, EffectParams, field_blocks
+from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
 
 FIELDS = ("HEIGHT", "DISTANCE", "NOISE")
@@ -84,3 +85,34 @@ def _grade_block(sh_dc: np.ndarray, x: np.ndarray, p: Grade, out: np.ndarray) ->
                 delta = colour
         delta *= gain
         np.add(base, delta, out=out[:, c])
+
+
+def _stops(values: dict) -> dict:
+    stops = [(0.0, values["color_a"]), (1.0, values["color_b"])]
+    if values["use_color_mid"]:
+        stops.insert(1, (float(values["mid_position"]), values["color_mid"]))
+    return {"stops": tuple(stops)}
+
+
+def _colour(name, label, default):
+    return Field(name, "COLOR", label, default, derived=True)
+
+
+KIND = EffectKind(
+    "GRADE", 4, "Colour Grade", "A colour gradient by height, distance or noise", "COLOR",
+    Grade, apply, moves_splats=False, depends_on_time=False, fields=(
+        Field("grade_field", "ENUM", "Field", param="field", items=(
+            ("HEIGHT", "Height", "Along the gizmo's Z"), ("DISTANCE", "Distance", "From the gizmo"),
+            ("NOISE", "Noise", "Noise value 0..1"))),
+        Field("grade_mode", "ENUM", "Blend Mode", param="mode", items=(
+            ("MIX", "Mix", ""), ("MULTIPLY", "Multiply", ""), ("ADD", "Add", ""))),
+        _colour("color_a", "Low Colour", (0.1, 0.2, 1.0)),
+        _colour("color_b", "High Colour", (1.0, 0.4, 0.1)),
+        Field("use_color_mid", "BOOL", "Middle Colour", False, derived=True),
+        _colour("color_mid", "Middle Colour", (1.0, 1.0, 1.0)),
+        Field("mid_position", "FLOAT", "Middle At", 0.5, derived=True,
+              options={"min": 0.0, "max": 1.0, "subtype": "FACTOR"}),
+        Field("range_low", "FLOAT", "Low", 0.0, "Field value of the low colour", param="low"),
+        Field("range_high", "FLOAT", "High", 1.0, "Field value of the high colour", param="high"),
+        FREQUENCY, SEED),
+    derive=lambda values, fps: _stops(values))

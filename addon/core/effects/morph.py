@@ -19,6 +19,7 @@ import numpy as np
 from ..reframe import map_into
 from ..splats import SplatSet, sh_coeff_count
 from .common import F32, EffectParams, join, split
+from .kind import EffectKind, Field
 
 
 @dataclass
@@ -187,3 +188,18 @@ class MorphCache:
     def clear(self):
         with self.lock:
             self.entries.clear()
+
+
+def _target(values: dict, fps: float) -> dict:
+    target, pairing = values["target"]
+    return {"target": target, "pairing": pairing}
+
+
+KIND = EffectKind(
+    "MORPH", 5, "Morph", "Blend towards another splat object", "SHAPEKEY_DATA", Morph, apply,
+    moves_splats=True, depends_on_time=False, fields=(
+        Field("target", "SPLATS", "Target", derived=True, description=(
+            "Splat object to morph into (its own data, not its effects). To keep it from "
+            "showing, untick its Look > Show rather than hiding it, so the render still "
+            "evaluates its animation")),),
+    derive=_target, opaque=("target", "pairing"))

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..sh import C0
 from .common import F32, EffectParams, add_rows, field_blocks, scale_rows, smoothstep01
+from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
 
 SHAPES = ("PLANE", "SPHERE", "NOISE")
@@ -78,3 +79,21 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if sh_dc is not None:
         changes["sh_dc"] = sh_dc
     return replace(splats, **changes)
+
+
+KIND = EffectKind(
+    "REVEAL", 0, "Reveal/Dissolve", "A plane, sphere or noise threshold sweeps the splats in or out",
+    "MOD_BUILD", Reveal, apply, moves_splats=False, depends_on_time=False, fields=(
+        Field("reveal_shape", "ENUM", "Shape", param="shape", items=(
+            ("PLANE", "Plane", "Height along the gizmo's Z"),
+            ("SPHERE", "Sphere", "Distance from the gizmo"), ("NOISE", "Noise", "Noise value 0..1"))),
+        Field("progress", "FLOAT", "Progress", 0.0,
+              "Threshold: splats with a field value below it are shown",
+              options={"soft_min": -5.0, "soft_max": 5.0}),
+        Field("edge_width", "FLOAT", "Edge Width", 0.1, param="width",
+              options={"min": 0.0, "soft_max": 2.0}),
+        Field("invert", "BOOL", "Invert (Dissolve)", False),
+        Field("shrink", "FLOAT", "Shrink", 1.0, options={"min": 0.0, "max": 1.0, "subtype": "FACTOR"}),
+        Field("glow_color", "COLOR", "Glow Colour", (1.0, 0.45, 0.1)),
+        Field("glow_strength", "FLOAT", "Glow", 0.0, options={"min": 0.0, "soft_max": 4.0}),
+        FREQUENCY, SEED))

@@ -12,16 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..splats import SplatSet
-from . import displace, explode, grade, morph, reveal, twist
-
-KERNELS = {
-    reveal.Reveal: reveal.apply,
-    displace.Displace: displace.apply,
-    explode.Explode: explode.apply,
-    twist.Twist: twist.apply,
-    grade.Grade: grade.apply,
-    morph.Morph: morph.apply,
-}
+from . import registry
 
 
 @dataclass
@@ -31,11 +22,7 @@ class StackResult:
 
 
 def apply_effect(splats: SplatSet, params, time: float, rest=None) -> SplatSet:
-    try:
-        kernel = KERNELS[type(params)]
-    except KeyError:
-        raise TypeError(f"no effect kernel for {type(params).__name__}") from None
-    return kernel(splats, params, time, rest)
+    return registry.of(params).kernel(splats, params, time, rest)
 
 
 def evaluate_stack(splats: SplatSet, effects, time: float) -> StackResult:

@@ -12,6 +12,7 @@ import numpy as np
 
 from .common import (F32, EffectParams, blocks, frame_axis, frame_origin, join, local_columns,
                      rotate_quats_about, split)
+from .kind import EffectKind, Field
 
 
 @dataclass
@@ -81,3 +82,13 @@ def apply(splats, p: Twist, time: float = 0.0, rest=None):
         positions[part] = rotate_about_axis(centres, origin, axis, cos, sin)
         rotations[part] = rotate_quats_about(axis, cos_half, sin_half, splats.rotations[part])
     return replace(splats, positions=positions, rotations=rotations)
+
+
+KIND = EffectKind(
+    "TWIST", 3, "Twist/Swirl", "Rotate splats about an axis by height or radius", "MOD_SIMPLEDEFORM",
+    Twist, apply, moves_splats=True, depends_on_time=False, fields=(
+        Field("twist", "FLOAT", "Twist", 0.5, "Angle per unit of height along the gizmo's Z",
+              options={"subtype": "ANGLE"}),
+        Field("swirl", "FLOAT", "Swirl", 0.0, "Angle at the axis, falling off with distance",
+              options={"subtype": "ANGLE"}),
+        Field("swirl_radius", "FLOAT", "Swirl Radius", 1.0, param="radius", options={"min": 0.0})))

@@ -1,0 +1,75 @@
+"""How an effect describes itself: one `EffectKind` per effect, declared beside its kernel.
+
+Everything outside the kernel reads the description: the Blender property group and its
+panel (fields), the operators' type menu, the evaluator (params built from the fields, a
+cache key that holds the time only when `depends_on_time`, a positions key that changes
+only when `moves_splats`). registry.py holds the table of kinds.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+# Field types: FLOAT, INT, BOOL, ENUM (items: (id, label, description) rows), COLOR (RGB,
+# read as a tuple), SPLATS (another splat object: the Blender layer hands its splats
+# mapped into this object's space and paired with its splats, as (SplatSet, Pairing)).
+FIELD_TYPES = ("FLOAT", "INT", "BOOL", "ENUM", "COLOR", "SPLATS")
+
+
+@dataclass(frozen=True)
+class Field:
+    """One setting of an effect: an animatable property of the Blender Effect item.
+
+    `name` is the property's identifier, which saved files, keyframes and presets hold, so
+    it never changes; kinds that share a setting (seed, frequency) share one Field.
+    `options` are further property options (min, soft_max, subtype, unit)."""
+    name: str
+    type: str
+    label: str
+    default: Any = None
+    description: str = ""
+    param: str | None = None    # the params field it sets (None: the same name)
+    derived: bool = False       # read only by the kind's `derive`, not passed as is
+    items: tuple = ()
+    options: dict = field(default_factory=dict, hash=False, compare=True)
+
+    def __post_init__(self):
+        if self.type not in FIELD_TYPES:
+            raise ValueError(f"field {self.name!r}: type {self.type!r} is not one of {FIELD_TYPES}")
+
+
+@dataclass(frozen=True)
+class EffectKind:
+    """An effect: its kernel, its parameters and what the evaluator must know about it.
+
+    moves_splats: the kernel may change positions (the viewport re-packs and re-sorts).
+    depends_on_time: its output changes with time itself, not only through keyframes
+    (the cache key of an evaluated frame then holds the time)."""
+    id: str                     # the Effect item's `type`, held by files and presets
+    number: int                 # its enum value in saved files: unique, never reused
+    label: str
+    description: str
+    icon: str                   # a Blender icon name
+    params: type                # the kernel's EffectParams subclass
+    kernel: Callable            # apply(splats, params, time, rest) -> SplatSet
+    moves_splats: bool
+    depends_on_time: bool
+    fields: tuple = ()
+    derive: Callable | None = None  # (field values by name, fps) -> further params
+    opaque: tuple = ()          # params identified by their source's key, not by value
+
+    def make(self, values: dict, fps: float, **common):
+        """The kernel's params from field values (by field name) and the common ones
+        (enabled, amount, frame)."""
+        params = dict(common)
+        for f in self.fields:
+            if not f.derived:
+                params[f.param or f.name] = values[f.name]
+        if self.derive is not None:
+            params.update(self.derive(values, fps))
+        return self.params(**params)
+
+
+SEED = Field("seed", "INT", "Seed", 0, options={"min": 0})
+FREQUENCY = Field("frequency", "FLOAT", "Frequency", 1.0, "Noise cells per gizmo unit",
+                  options={"min": 0.0, "soft_max": 20.0})

@@ -204,7 +204,7 @@ def _prepare(bpy, args):
 
 
 def _apply_preset(name: str) -> None:
-    from ..blender.ops.presets import apply_render_preset
+    from ..blender.data.presets import apply_render_preset
     try:
         apply_render_preset(name)
     except KeyError as exc:

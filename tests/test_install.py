@@ -107,6 +107,10 @@ def test_installed_tree_holds_every_module_shader_and_preset(installed):
         have = {p.relative_to(package) for p in (package / folder).rglob("*")
                 if p.is_file() and "__pycache__" not in p.parts}
         assert want <= have, sorted(map(str, want - have))
+    # Test support (testing/) is not part of the product.
+    test_only = {p.name for p in (ROOT / "testing").rglob("*.py") if p.name != "__init__.py"}
+    assert not (package / "testing").exists()
+    assert not [p for p in package.rglob("*.py") if p.name in test_only]
 
 
 def test_help_names_the_command(installed):

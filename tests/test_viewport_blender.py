@@ -14,7 +14,7 @@ from viewport_scene import blob, camera_for, draw_offscreen, overlay_drawn, psnr
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True

@@ -37,7 +37,7 @@ EDGE_TOL = 1e-3     # relative: an ellipse edge within this is a float32 coin to
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True

@@ -18,7 +18,7 @@ TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4, "RGBA16": 8, "RG32F": 8, 
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True

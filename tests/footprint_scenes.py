@@ -95,7 +95,7 @@ def render_rgba(path, request, items, cam, options=RenderOptions()) -> np.ndarra
     if path in ("gl", "gl33"):
         return request.getfixturevalue(path).render(items, cam, options).rgba
     from addon.blender.viewport import DrawSettings, ItemDisplay
-    from viewport_scene import draw_offscreen
+    from testing.viewport_scene import draw_offscreen
 
     request.getfixturevalue("gpu_ready")
     displays = [ItemDisplay(key_bits=options.key_bits)] * len(items)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
-from viewport_scene import draw_offscreen, psnr
+from testing.engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
+from testing.viewport_scene import draw_offscreen, psnr
 
 
 def _render(bpy, scene, path):

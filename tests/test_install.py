@@ -157,7 +157,7 @@ def test_import_and_render_with_bpy(installed, testdata):
     run = _splatline(installed, "render", "g.blend", "--out", "frames", "--frames", "1-1",
                      "--resolution", "64x48", "--preset", "png_16bit", timeout=300, with_bpy=True)
     assert run.returncode == 0, run.stdout + run.stderr
-    from engine_scene import read_image
+    from testing.engine_scene import read_image
 
     pixels = read_image(cwd / "frames" / "frame_0001.png")
     assert pixels.shape == (48, 64, 4) and pixels.dtype.itemsize == 2  # png_16bit: RGBA, 16-bit

@@ -23,7 +23,7 @@ import pytest
 from addon.core import reference
 from addon.core.project import project
 from addon.core.scene import RenderOptions
-from viewport_scene import camera_for, draw_offscreen, psnr, two_objects
+from testing.viewport_scene import camera_for, draw_offscreen, psnr, two_objects
 
 PSNR_MIN = 60.0
 

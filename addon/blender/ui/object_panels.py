@@ -18,12 +18,19 @@ def _sequence_object(context):
     return obj if is_splat_object(obj, with_splat_data=True) else None
 
 
-class OBJECT_PT_splatline_sequence(bpy.types.Panel):
-    bl_label = "Splat Sequence"
-    bl_idname = "OBJECT_PT_splatline_sequence"
+class _ObjectPanel:
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "object"
+
+    @classmethod
+    def poll(cls, context):
+        return is_splat_object(context.object)
+
+
+class OBJECT_PT_splatline_sequence(_ObjectPanel, bpy.types.Panel):
+    bl_label = "Splat Sequence"
+    bl_idname = "OBJECT_PT_splatline_sequence"
     bl_options = {"DEFAULT_CLOSED"}
 
     @classmethod
@@ -60,16 +67,6 @@ class SPLATLINE_UL_effects(bpy.types.UIList):
         row.prop(item, "name", text="", emboss=False, icon=icon)
         row.prop(item, "amount", text="")
         row.prop(item, "enabled", text="", icon="HIDE_OFF" if item.enabled else "HIDE_ON", emboss=False)
-
-
-class _ObjectPanel:
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "object"
-
-    @classmethod
-    def poll(cls, context):
-        return is_splat_object(context.object)
 
 
 class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):

@@ -173,3 +173,11 @@ def test_cli_and_demo_never_import_the_operators():
     for name in users:
         bad = {t for t in GRAPH[name] if _inside(t, "addon.blender.ops")}
         assert not bad, f"{name} imports {sorted(bad)}"
+
+
+def test_the_product_never_imports_test_support():
+    """testing/, tests/ and bench/ stay out of the extension zip and pip installs, so nothing
+    in addon/ may need them."""
+    for name, targets in GRAPH.items():
+        bad = {t for t in targets if t in {"testing", "tests", "bench", "conftest"}}
+        assert not bad, f"{name} imports {sorted(bad)}"

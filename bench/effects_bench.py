@@ -17,7 +17,7 @@ import numpy as np
 from addon.core.effects import (Displace, Explode, Grade, Morph, Reveal, Twist, evaluate_stack,
                                 pair)
 from addon.core.effects import noise
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 from addon.core.look import CropSphere, apply_crop
 from addon.core.splats import SplatSet
 from bench.common import wall_and_cpu

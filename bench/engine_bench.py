@@ -12,7 +12,6 @@ and the file cost on top of the renderer. Medians of REPEATS runs.
 from __future__ import annotations
 
 import pathlib
-import sys
 import tempfile
 
 from bench.common import median_s
@@ -23,8 +22,7 @@ SIZES = ((320, 180), (960, 540))  # llvmpipe takes seconds a frame; add 1920x108
 
 
 def _scene(bpy):
-    sys.path.insert(0, str(ROOT / "tests"))
-    from engine_scene import guitar_scene
+    from testing.engine_scene import guitar_scene
 
     scene, _, _ = guitar_scene(bpy, ROOT.parent / "shared" / "testdata", [1, 2, 3], 64, 64, count=0)
     scene.camera.animation_data_clear()  # every frame the same view, so rows compare

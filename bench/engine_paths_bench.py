@@ -1,7 +1,7 @@
 """The engine's render paths on one scene, through bpy.ops.render.render, against the
 float64 reference (python -m bench engine_paths).
 
-Scene: tests/engine_paths_scene.two_object_scene (test64.ply and a degree-1 blob
+Scene: testing/engine_paths_scene.two_object_scene (test64.ply and a degree-1 blob
 interleaved in depth), 160x120, transparent film, Z pass off (colour only: the
 gpu-module path has no depth pass). Each still is its own
 render job, so "ms/frame" includes what a job costs (moderngl: making its context and
@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import pathlib
 import statistics
-import sys
 import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -22,11 +21,12 @@ PATHS = ("OFFSCREEN", "GPU_MODULE")
 
 
 def main() -> None:
-    sys.path.insert(0, str(ROOT / "tests"))
-    import conftest  # noqa: F401  (Blender's bundled OpenImageIO on sys.path)
+    from testing.blender_packages import use_bundled_packages
+
+    use_bundled_packages()  # the EXRs are read with Blender's bundled OpenImageIO
     import bpy
-    from engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
-    from viewport_scene import psnr
+    from testing.engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
+    from testing.viewport_scene import psnr
 
     from addon import register
     from addon.blender.render import paths as render_paths

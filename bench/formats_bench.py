@@ -26,7 +26,7 @@ import numpy as np
 
 from addon.core.formats import read, write
 from addon.core.formats.ply import write_ply
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 from bench.common import median_s
 
 TESTDATA = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "testdata"

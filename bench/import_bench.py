@@ -91,7 +91,7 @@ def _child(variant: str, path: str) -> dict:
 def make_file(folder: str) -> str:
     sys.path.insert(0, ROOT)
     from addon.core.formats import write
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
 
     path = os.path.join(folder, "bench_1m_deg3.ply")
     write(path, random_splats(COUNT, DEGREE, seed=0))

@@ -1,8 +1,8 @@
 """Splats and meshes in one final frame (issue 25): what the mesh layer costs beside the splat
 layer, through Blender's own pipeline (python -m bench.mesh_layer_bench [runs] [--eevee]).
 
-The scene is tests/holdout_scenes.guitar_scene built from real primitives
-(tests/mesh_layer_scene.py: every splat of guitar.ply, a cube in front of it, one behind, a
+The scene is testing/holdout_scenes.guitar_scene built from real primitives
+(testing/mesh_layer_scene.py: every splat of guitar.ply, a cube in front of it, one behind, a
 tilted plane through its middle) at SIZE, rendered by bpy.ops.render.render(write_still=True)
 to a 32-bit multilayer EXR with the Z pass. Rows:
 - Meshes: Ignored: the splats alone (no holdout, no compositor);
@@ -34,8 +34,7 @@ PICTURE = ROOT / "docs" / "mesh_layer.png"
 
 
 def _scene(bpy):
-    sys.path.insert(0, str(ROOT / "tests"))
-    from mesh_layer_scene import build
+    from testing.mesh_layer_scene import build
 
     testdata = ROOT.parent / "shared" / "testdata"
     bpy.ops.wm.read_factory_settings(use_empty=True)

@@ -26,7 +26,7 @@ from addon.core import reference
 from addon.core.axes import matrix_for
 from addon.core.camera import Camera, look_at, simple_camera
 from addon.core.formats import read
-from addon.core.formats.synth import shell_splats
+from testing.synth import shell_splats
 from addon.core.scene import RenderItem, RenderOptions
 from bench.common import median_ms, psnr, reaching
 

@@ -48,7 +48,7 @@ def main() -> None:
     from addon.blender.evaluate.items import collect_items
     from addon.blender.data.sequences import import_sequence
     from addon.core.formats import read, write
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if not hasattr(bpy.types.Object, "splatline"):

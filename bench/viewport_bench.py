@@ -47,7 +47,7 @@ DEGREE = 1
 
 
 def _splats(n: int, degree: int = DEGREE):
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
     return random_splats(n, degree, 0, spread=1.0, log_scale=(-6.0, -3.0), opacity=(0.05, 1.0), rest=0.2)
 
 
@@ -128,7 +128,7 @@ def main(argv=()) -> None:
     import gpu
 
     from addon.blender.viewport import ViewportRenderer
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
     from addon.core.scene import RenderItem
 
     ensure_gpu()

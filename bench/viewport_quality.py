@@ -5,7 +5,7 @@ reference renderer. Part of `python -m bench viewport` (viewport_bench.main prin
 
 Scenes: guitar.ply (90,854 splats, degree 0) with the object rotation its RDF axes get on
 import, framed from the front at 320x240; a degree-3 scene: test64.ply and 3,000
-generated degree-3 splats (core/formats/synth.random_splats) around it, 160x120.
+generated degree-3 splats (testing/synth.random_splats) around it, 160x120.
 """
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def _guitar():
 def _degree3(n: int = 3000):
     from addon.core.camera import look_at, simple_camera
     from addon.core.formats import read
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
     from addon.core.scene import RenderItem
 
     capture = read(TESTDATA / "test64.ply")
@@ -103,7 +103,7 @@ def memory(n: int = 16384) -> dict:
 def main() -> None:
     import bpy  # noqa: F401  (starts Blender)
 
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     sizes = memory()

@@ -116,10 +116,7 @@ def native_bpy(bpy_empty):
     return bpy_empty
 
 
-# Blender's bundled Python packages (OpenImageIO, ...) inside the bpy wheel: found the way the
-# command line finds them (core's webp module), appended so the venv's own numpy wins.
-from addon.core.formats.webp import _bundled_site_packages  # noqa: E402
+# Blender's bundled Python packages (OpenImageIO, ...) inside the bpy wheel.
+from testing.blender_packages import use_bundled_packages  # noqa: E402
 
-_site = _bundled_site_packages()
-if _site is not None and _site not in sys.path:
-    sys.path.append(_site)
+use_bundled_packages()

@@ -81,7 +81,7 @@ def gl33():
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True
@@ -95,7 +95,7 @@ def render_rgba(path, request, items, cam, options=RenderOptions()) -> np.ndarra
     if path in ("gl", "gl33"):
         return request.getfixturevalue(path).render(items, cam, options).rgba
     from addon.blender.viewport import DrawSettings, ItemDisplay
-    from viewport_scene import draw_offscreen
+    from testing.viewport_scene import draw_offscreen
 
     request.getfixturevalue("gpu_ready")
     displays = [ItemDisplay(key_bits=options.key_bits)] * len(items)

@@ -20,7 +20,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from addon.core.formats import read, write  # noqa: E402
-from addon.core.formats.synth import random_splats  # noqa: E402
+from testing.synth import random_splats  # noqa: E402
 
 OUTPUTS = ["a.ply", "a.splat", "a.spz", "a.compressed.ply", "a.glb", "a.gltf", "a.sog", "meta.json"]
 
@@ -28,7 +28,7 @@ CHILD = textwrap.dedent("""
     import os, sys, time
     sys.path.insert(0, {root!r})
     from addon.core.formats import write
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
     out, point, marker = {out!r}, {point!r}, {marker!r}
     folder = os.path.realpath(os.path.dirname(out))
 

@@ -14,7 +14,7 @@ from _spz_encode import blocks, encode
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read, read_with_report, write
 from addon.core.formats.ply import write_ply
-from addon.core.formats.synth import random_splats, write_ply_variant
+from testing.synth import random_splats, write_ply_variant
 
 
 def fails(path, *words, **opts):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.core.formats import read, write
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 
 FRAMES = (1, 2, 3, 4)
 

@@ -9,7 +9,7 @@ import pytest
 from addon.core import formats
 from addon.core.reframe import reframe
 from addon.core.sh import sh_to_rgb
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 
 EXACT = ["x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2"]
 

@@ -139,7 +139,7 @@ def test_nan_and_zero_quaternions_by_policy(bpy_empty, tmp_path):
 
     from addon.blender.data.files import import_file_with_report
     from addon.core import formats
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
 
     splats = random_splats(20, 1, seed=5)
     splats.positions[3, 1] = np.nan

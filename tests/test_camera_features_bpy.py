@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from addon.core import reference
-from engine_scene import add_camera, add_splats, read_exr_parts, set_output, setup_render
+from testing.engine_scene import add_camera, add_splats, read_exr_parts, set_output, setup_render
 from gl_scenes import psnr
 
 PANO_POINTS = [(3.0, 1.0, 0.5), (-2.0, -2.0, 1.5), (0.5, 0.1, 4.0), (1.0, 3.0, -1.0)]

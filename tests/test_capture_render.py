@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from engine_scene import read_image
+from testing.engine_scene import read_image
 from test_camtrack import SETTINGS, playcanvas_pixel
 
 from addon.core import formats

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from engine_paths_scene import reference_frame
-from engine_scene import read_image
-from viewport_scene import psnr
+from testing.engine_paths_scene import reference_frame
+from testing.engine_scene import read_image
+from testing.viewport_scene import psnr
 
 WIDTH, HEIGHT = 120, 90
 # PSNR of the whole frame and of the pixels the capture covers (about 6% of this frame:

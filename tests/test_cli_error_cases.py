@@ -4,7 +4,7 @@ data, nothing written; a misspelled option gets its sub-command's usage."""
 from __future__ import annotations
 
 import pytest
-from engine_scene import add_camera, add_splats, exr_colour_formats, flat_splats, setup_render
+from testing.engine_scene import add_camera, add_splats, exr_colour_formats, flat_splats, setup_render
 from test_one_line_errors import cli, one_line
 from webp_support import STRAIGHT_WEBP
 

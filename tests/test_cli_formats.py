@@ -11,7 +11,7 @@ import pytest
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read
 from addon.core.formats.ply import write_ply
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 from conftest import ROOT
 
 READABLE = ["guitar.ply", "guitar.compressed.ply", "guitar.splat", "guitar.spz", "guitar_v3.spz"]

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from engine_scene import read_image
+from testing.engine_scene import read_image
 from test_one_line_errors import cli as measured_cli, one_line
 
 from addon.core import framing

@@ -9,7 +9,7 @@ import sys
 import bpy  # noqa: F401  (puts bpy_extras on the path)
 import pytest
 from bpy_extras import anim_utils
-from engine_scene import add_camera, add_splats, flat_splats, setup_render
+from testing.engine_scene import add_camera, add_splats, flat_splats, setup_render
 
 from addon.core import procedural
 from addon.core.formats import write

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from addon.blender.ops.presets import find_preset
+from addon.blender.data.presets import find_preset
 from addon.core import effect_presets as core
 from capture_scenes import item_at, own_item, world_positions
 from conftest import ROOT

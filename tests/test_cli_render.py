@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from engine_scene import guitar_scene, read_exr_parts, read_image
+from testing.engine_scene import guitar_scene, read_exr_parts, read_image
 from interrupt import interrupt_after
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -15,7 +15,7 @@ import pytest
 
 from addon.core.colorspace import linear_to_srgb
 from conftest import ROOT
-from engine_scene import read_exr_parts, read_image
+from testing.engine_scene import read_exr_parts, read_image
 
 FRAMES, WIDTH, HEIGHT, SPLATS = 6, 96, 54, 20000
 LAYER = "ViewLayer.Combined"

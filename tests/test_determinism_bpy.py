@@ -77,7 +77,7 @@ def test_frame_57_is_the_same_however_we_get_there(bpy_empty, tmp_path):
 
 
 def test_render_frame_57_alone_equals_it_inside_an_animation(bpy_empty, tmp_path, monkeypatch):
-    from engine_scene import add_camera, read_exr_parts, set_output, setup_render
+    from testing.engine_scene import add_camera, read_exr_parts, set_output, setup_render
 
     from addon.blender.render import engine
 
@@ -115,7 +115,7 @@ def test_farm_split_frame_57_alone_in_another_process_matches(bpy_empty, tmp_pat
     import subprocess
     import sys
 
-    from engine_scene import add_camera, read_exr_parts, setup_render
+    from testing.engine_scene import add_camera, read_exr_parts, setup_render
 
     bpy = bpy_empty
     build_scene(bpy)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from animation_scene import add_object, grid_splats, items_at
-from viewport_scene import overlay_drawn
+from testing.viewport_scene import overlay_drawn
 
 
 def _add(bpy, obj, kind):

@@ -12,7 +12,7 @@ import pytest
 from addon.core.effects import EffectParams, KINDS, registry
 from addon.core.effects.kind import EffectKind, Field
 from capture_scenes import item_at, own_item, place
-from viewport_scene import camera_for, draw_offscreen, overlay_drawn, psnr
+from testing.viewport_scene import camera_for, draw_offscreen, overlay_drawn, psnr
 
 ARRAYS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 
@@ -122,7 +122,7 @@ def test_a_throwaway_effect_is_evaluated_cached_and_invalidated(with_bob, testda
 
     # the viewport re-packs and re-sorts the moved centres, and draws what a fresh one does
     from addon.blender.viewport import ViewportRenderer
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     viewport = ViewportRenderer()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.core.colorspace import linear_to_srgb
-from engine_scene import (add_camera, add_splats, exr_colour_formats, flat_splats, guitar_scene,
+from testing.engine_scene import (add_camera, add_splats, exr_colour_formats, flat_splats, guitar_scene,
                           read_exr_parts, read_image, set_output, setup_render)
 
 W, H = 160, 120

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
-from viewport_scene import draw_offscreen, psnr
+from testing.engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
+from testing.viewport_scene import draw_offscreen, psnr
 
 
 def _render(bpy, scene, path):
@@ -17,7 +17,7 @@ def _render(bpy, scene, path):
 def test_viewport_draws_between_final_renders(bpy_empty, tmp_path):
     from addon.blender.render.camera import camera_from_blender
     from addon.blender.evaluate.items import collect_items
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
     from addon.core.colorspace import linear_to_srgb
 
     bpy = bpy_empty

@@ -24,8 +24,8 @@ import pytest
 
 from addon.blender.render.engine import world_background
 from addon.blender.render.film import BACKGROUND_DEPTH
-from engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
-from viewport_scene import psnr
+from testing.engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
+from testing.viewport_scene import psnr
 
 MIN_PSNR = 60.0
 
@@ -91,13 +91,15 @@ def test_auto_falls_back_when_moderngl_is_not_installed(testdata, tmp_path):
                 if name.split(".")[0] in ("moderngl", "glcontext"):
                     raise ImportError(f"No module named {{name!r}} (blocked)")
         sys.meta_path.insert(0, Block())
-        sys.path[:0] = [{root!r}, {os.path.join(root, "tests")!r}]
-        import pathlib, conftest, bpy, numpy as np
+        sys.path.insert(0, {root!r})
+        from testing.blender_packages import use_bundled_packages
+        use_bundled_packages()
+        import pathlib, bpy, numpy as np
         from addon import register
         bpy.ops.wm.read_factory_settings(use_empty=True)
         register()
-        from engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
-        from viewport_scene import psnr
+        from testing.engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
+        from testing.viewport_scene import psnr
         from addon.blender.render import paths as render_paths
         scene = two_object_scene(bpy, pathlib.Path({str(testdata)!r}), 96, 72)
         rgba, _, _ = render_exr(bpy, scene, pathlib.Path({str(tmp_path / "auto")!r}), "AUTO")
@@ -166,7 +168,7 @@ def test_gpu_path_animation_reuses_one_renderer(bpy_empty, testdata, tmp_path):
     releases it. Its GPU textures live for one frame only: they must be freed inside
     render(), where Blender's GPU context is current (Blender 4.5 aborts otherwise)."""
     from addon.blender.render import engine
-    from engine_scene import orbit_keys, set_output
+    from testing.engine_scene import orbit_keys, set_output
 
     bpy = bpy_empty
     scene = two_object_scene(bpy, testdata, 64, 48)
@@ -186,7 +188,7 @@ def test_gpu_path_animation_reuses_one_renderer(bpy_empty, testdata, tmp_path):
     assert seen[0]._viewport.stats.uploads == 3 * 3, "pos, shape, sh: once a frame, freed in render()"
     assert seen[0]._viewport.gpu is None, "no GPU object outlives render()"
     assert not engine._HOLDER.alive
-    from engine_scene import read_exr_parts
+    from testing.engine_scene import read_exr_parts
 
     frames = [read_exr_parts(tmp_path / f"f_{k:04d}.exr")["ViewLayer.Combined"] for k in (1, 2, 3)]
     for frame, rgba in zip((1, 2, 3), frames):

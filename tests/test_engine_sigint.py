@@ -6,7 +6,7 @@ import os
 import sys
 import textwrap
 
-from engine_scene import guitar_scene, read_image
+from testing.engine_scene import guitar_scene, read_image
 from interrupt import interrupt_after
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.blender.compat import world_node_tree
-from engine_scene import (add_camera, add_splats, flat_splats, read_exr_parts, set_output,
+from testing.engine_scene import (add_camera, add_splats, flat_splats, read_exr_parts, set_output,
                           setup_render)
 
 W, H = 48, 32

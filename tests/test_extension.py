@@ -118,6 +118,25 @@ def test_one_zip_per_platform(extension_zips):
         assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
+def _test_only_modules() -> set[str]:
+    """File names of the test-support modules (testing/), wherever they might be shipped."""
+    names = {p.name for p in (ROOT / "testing").rglob("*.py") if p.name != "__init__.py"}
+    assert {"synth.py", "headless.py"} <= names, "testing/ lost its generators"
+    return names
+
+
+def test_zip_holds_no_test_only_module(extension_zips):
+    test_only = _test_only_modules()
+    product = {p.relative_to(ROOT).as_posix() for folder in ("addon", "presets")
+               for p in (ROOT / folder).rglob("*.py")}
+    for platform, zip_path in extension_zips.items():
+        modules = [n for n in zipfile.ZipFile(zip_path).namelist() if n.endswith(".py")]
+        assert not [n for n in modules if n.startswith("testing/")
+                    or n.rsplit("/", 1)[-1] in test_only], platform
+        # Python goes in only as the add-on, its presets and the zip's own __init__.py.
+        assert set(modules) == product | {"__init__.py"}, platform
+
+
 def _venvs():
     """The Python running pytest, and the venv of the other Blender Python (3.11 <-> 3.13)."""
     other = ROOT / (".venv-5.2" if sys.version_info[:2] == (3, 11) else ".venv") / "bin" / "python"

@@ -20,7 +20,7 @@ import zstandard
 from _spz_encode import encode
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read
-from addon.core.formats.synth import write_ply_variant
+from testing.synth import write_ply_variant
 
 CASES_PER_SEED = 500
 SPECIAL = np.array([np.nan, np.inf, -np.inf, 0.0, -0.0, 1e-30, 3e38, -3e38, -1.0, 1e-45, 1e-23, 100.0,

@@ -19,7 +19,7 @@ from addon.core.errors import SplatFormatError
 from addon.core.formats import read, read_with_report, write
 from addon.core.formats.ply import write_ply
 from addon.core.formats.splat import RECORD
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 from addon.core.splats import SplatSet
 from test_bad_input_formats import fails
 from webp_support import STRAIGHT_WEBP

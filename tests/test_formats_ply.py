@@ -6,7 +6,7 @@ import pytest
 
 from addon.core.formats import read, read_with_report, write
 from addon.core.formats.ply import encode_vertices, ply_dtype, write_ply
-from addon.core.formats.synth import random_splats, write_ply_variant
+from testing.synth import random_splats, write_ply_variant
 from addon.core.splats import sh_coeff_count
 
 

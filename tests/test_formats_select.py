@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from addon.core.formats import read, write
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 from addon.core.select import importance, limit_count, prune_opacity, select
 from addon.core.sh import C0
 

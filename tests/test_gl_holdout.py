@@ -31,7 +31,7 @@ from addon.gl import OffscreenRenderer
 from addon.gl.composite import depth_encoding, held_band
 from addon.gl.holdout import depth_bounds
 from gl_scenes import assert_depth_matches, psnr
-from holdout_scenes import guitar_scene, quad_mesh, triangulate
+from testing.holdout_scenes import guitar_scene, quad_mesh, triangulate
 
 MIN_PSNR = 45.0
 PATHS = ["compute", "gl33"]

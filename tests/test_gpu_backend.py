@@ -26,7 +26,7 @@ _GPU_USE = re.compile(r"\bensure_gpu\b|\bgpu_ready\b|\bdraw_offscreen\b|\bdraw_c
 def test_blender_gpu_runs_on_the_backend_asked_for(_bpy_registered):
     import gpu
 
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()  # the gpu module is usable from here on: Blender's GPU has started
     got = gpu.platform.backend_type_get()

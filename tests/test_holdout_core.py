@@ -15,7 +15,7 @@ from addon.core.holdout import Holdout, combine_alpha, combine_depth, holdout_de
 from addon.core.project import project
 from addon.core.scene import RenderItem, RenderOptions
 from gl_scenes import framing_camera, random_splats, world_for
-from holdout_scenes import guitar_scene, quad_mesh, triangulate
+from testing.holdout_scenes import guitar_scene, quad_mesh, triangulate
 
 FULL = RenderOptions(early_termination=False)
 

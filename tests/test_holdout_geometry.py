@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from engine_scene import add_camera, setup_render
+from testing.engine_scene import add_camera, setup_render
 
 CUBE_TRIS = 12
 
@@ -83,7 +83,7 @@ def test_every_surface_type_and_modifiers(bpy_empty, rendered_holdout):
 def test_what_does_not_hide_splats(bpy_empty, testdata, rendered_holdout):
     """Hidden from the render, excluded, indirect only, camera-invisible objects, and
     everything that is not a surface: splats, cameras, lights, empties."""
-    from engine_scene import add_splats, flat_splats
+    from testing.engine_scene import add_splats, flat_splats
 
     bpy = bpy_empty
     scene = bpy.context.scene
@@ -143,7 +143,7 @@ def test_scene_surfaces_read_back_exactly(bpy_empty, testdata):
     every pixel equals the scene's own triangles' (float32 vertices, Blender's diagonals)."""
     from addon.blender.evaluate.holdout_geometry import holdout_triangles
     from addon.core.holdout import Holdout, holdout_depth
-    from mesh_layer_scene import build
+    from testing.mesh_layer_scene import build
 
     bpy = bpy_empty
     hs, _objects, _ = build(bpy, testdata, 96, 64, count=1000)

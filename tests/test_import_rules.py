@@ -163,3 +163,21 @@ def test_blender_rooms_import_downwards_only():
             other = _room(target)
             if other is not None and other != room:
                 assert ROOMS[other] < ROOMS[room], f"{name} ({room}) imports {target} ({other})"
+
+
+def test_cli_and_demo_never_import_the_operators():
+    """Operators are for Blender's UI: what the command line and the demo share with them
+    (presets, effect presets) lives in data/, so neither reaches into ops/."""
+    users = [n for n in GRAPH if _inside(n, "addon.cli") or _inside(n, "addon.blender.demo")]
+    assert any(_inside(n, "addon.blender.demo") for n in users), "the demo moved: update the rule"
+    for name in users:
+        bad = {t for t in GRAPH[name] if _inside(t, "addon.blender.ops")}
+        assert not bad, f"{name} imports {sorted(bad)}"
+
+
+def test_the_product_never_imports_test_support():
+    """testing/, tests/ and bench/ stay out of the extension zip and pip installs, so nothing
+    in addon/ may need them."""
+    for name, targets in GRAPH.items():
+        bad = {t for t in targets if t in {"testing", "tests", "bench", "conftest"}}
+        assert not bad, f"{name} imports {sorted(bad)}"

@@ -107,6 +107,10 @@ def test_installed_tree_holds_every_module_shader_and_preset(installed):
         have = {p.relative_to(package) for p in (package / folder).rglob("*")
                 if p.is_file() and "__pycache__" not in p.parts}
         assert want <= have, sorted(map(str, want - have))
+    # Test support (testing/) is not part of the product.
+    test_only = {p.name for p in (ROOT / "testing").rglob("*.py") if p.name != "__init__.py"}
+    assert not (package / "testing").exists()
+    assert not [p for p in package.rglob("*.py") if p.name in test_only]
 
 
 def test_help_names_the_command(installed):
@@ -153,7 +157,7 @@ def test_import_and_render_with_bpy(installed, testdata):
     run = _splatline(installed, "render", "g.blend", "--out", "frames", "--frames", "1-1",
                      "--resolution", "64x48", "--preset", "png_16bit", timeout=300, with_bpy=True)
     assert run.returncode == 0, run.stdout + run.stderr
-    from engine_scene import read_image
+    from testing.engine_scene import read_image
 
     pixels = read_image(cwd / "frames" / "frame_0001.png")
     assert pixels.shape == (48, 64, 4) and pixels.dtype.itemsize == 2  # png_16bit: RGBA, 16-bit

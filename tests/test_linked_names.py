@@ -8,7 +8,7 @@ import pytest
 from addon.blender.evaluate.items import collect_items
 from addon.blender.data.pointcloud import new_pointcloud
 from addon.core import formats
-from viewport_scene import blob, overlay_drawn
+from testing.viewport_scene import blob, overlay_drawn
 
 
 @pytest.fixture

@@ -1,6 +1,6 @@
 """Splats and meshes in one final frame (issue 25), through Blender's own render pipeline.
 
-The scene is tests/holdout_scenes.guitar_scene built from real primitives
+The scene is testing/holdout_scenes.guitar_scene built from real primitives
 (mesh_layer_scene.py): guitar.ply, a cube in front of part of it, one behind, a tilted
 plane through the middle. Nothing is set up by hand: the Splatline engine with meshes in
 the scene is enough (render/mesh_layer.py makes the mesh scene and the compositor).
@@ -19,10 +19,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from engine_paths_scene import to_display
-from engine_scene import read_exr_parts, set_output
-from mesh_layer_scene import build
-from viewport_scene import psnr
+from testing.engine_paths_scene import to_display
+from testing.engine_scene import read_exr_parts, set_output
+from testing.mesh_layer_scene import build
+from testing.viewport_scene import psnr
 
 W, H = 96, 64
 COUNT = 20000          # the guitar's most important splats (the reference stays quick)

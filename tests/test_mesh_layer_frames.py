@@ -18,8 +18,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from engine_scene import read_exr_parts, read_image, set_output
-from mesh_layer_scene import build
+from testing.engine_scene import read_exr_parts, read_image, set_output
+from testing.mesh_layer_scene import build
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 W, H = 64, 48

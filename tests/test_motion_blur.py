@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from addon.core import reference, shutter
-from engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
-from engine_scene import guitar_scene
+from testing.engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
+from testing.engine_scene import guitar_scene
 from test_cli_render import _run_all
 
 

@@ -236,7 +236,7 @@ def test_blenders_ply_import_renders_as_splatlines_own(native_bpy, testdata, tmp
     given the same world transform (Splatline puts the PLY's frame on the transform)."""
     from addon.blender.data.pointcloud import read_positions
     from addon.core.axes import euler_for
-    from engine_scene import add_camera, read_image, set_output, setup_render
+    from testing.engine_scene import add_camera, read_image, set_output, setup_render
 
     bpy = native_bpy
     theirs = _blender_import(bpy, testdata / "guitar.ply")

@@ -127,7 +127,7 @@ def test_blender_renders_the_evaluated_splats_animation(native_bpy, testdata, tm
 
 
 def add_camera(bpy):
-    from engine_scene import add_camera as add
+    from testing.engine_scene import add_camera as add
 
     return add(bpy, location=(0.0, -4.0, 0.0))
 
@@ -162,7 +162,7 @@ def test_companion_only_where_splatline_changes_the_splats(native_bpy, testdata)
 def test_cycles_renders_a_revealing_splatline_import(native_bpy, testdata, tmp_path):
     """Cycles ray-traces a Splatline import as splats (not black silhouettes), and the
     reveal's keyed progress shows in its frames."""
-    from engine_scene import guitar_scene, read_image
+    from testing.engine_scene import guitar_scene, read_image
 
     bpy = native_bpy
     scene, _centre, _size = guitar_scene(bpy, testdata, (1, 2), 48, 32, 20000)
@@ -204,7 +204,7 @@ def test_blender_renders_a_sequence_and_a_hidden_morph_target(native_bpy, tmp_pa
     bpy.ops.render.render(animation=True)
     _assert_blender_sees_items(record.seen, (1, 2, 3))
     from addon.blender.data.pointcloud import new_pointcloud_object
-    from viewport_scene import blob
+    from testing.viewport_scene import blob
 
     target = new_pointcloud_object("target", blob(30, 1, seed=3, centre=(0, 0, 0), spread=0.2))
     assert len(target.data.points) == 30 and target.data.type == "GAUSSIAN_SPLAT"

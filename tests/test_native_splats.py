@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from native_scene import native_object
-from viewport_scene import blob, camera_for
+from testing.viewport_scene import blob, camera_for
 
 
 def _items(bpy):
@@ -83,7 +83,7 @@ def test_native_pointcloud_animates_through_look_keyframes(bpy_empty):
 
 def test_native_pointcloud_renders_through_the_splatline_engine(bpy_empty, tmp_path):
     from addon.blender.data.pointcloud import new_pointcloud_object
-    from engine_scene import add_camera, flat_splats, read_image, set_output, setup_render
+    from testing.engine_scene import add_camera, flat_splats, read_image, set_output, setup_render
 
     bpy = bpy_empty
     splats = flat_splats([(-0.8, 0.0, 0.0), (0.8, 0.0, 0.3)], [(0.2, 0.6, 0.9), (0.9, 0.4, 0.1)],

@@ -135,7 +135,7 @@ def test_spz_claiming_ten_million_splats_is_refused_within_the_budget(tmp_path):
 
 def test_glb_reusing_accessors_counts_every_use(tmp_path):
     from addon.core.formats import write
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
 
     base = tmp_path / "base.glb"
     write(base, random_splats(65536, degree=3, seed=2), "glb")
@@ -264,7 +264,7 @@ def test_numpy_overflow_warnings_stay_off_stderr(tmp_path):
     """Huge log-scales and logits overflow exp in decoding: the bad-value report is the one
     line, never numpy's RuntimeWarning (it reached stderr before)."""
     from addon.core.formats.ply import write_ply
-    from addon.core.formats.synth import random_splats
+    from testing.synth import random_splats
 
     base = tmp_path / "base.ply"
     write_ply(base, random_splats(16, seed=1))

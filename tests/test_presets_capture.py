@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import bpy  # noqa: F401
 
-from addon.blender.ops import effect_presets
-from addon.blender.ops.presets import find_preset
+from addon.blender.data import effect_presets
+from addon.blender.data.presets import find_preset
 from addon.core import effect_presets as core
 from addon.core.sh import sh_to_rgb
 from capture_scenes import TRANSFORMS, item_at, own_item, place, world_positions

@@ -11,9 +11,10 @@ import pytest
 import bpy  # noqa: F401  (puts bpy_extras on the path)
 from bpy_extras import anim_utils
 
-from addon.blender.ops import effect_presets, presets
+from addon.blender.data import effect_presets, presets
+from addon.blender.ops import effect_presets as preset_ops
 from addon.blender.evaluate.items import collect_items
-from addon.blender.data.pointcloud import new_pointcloud_object
+from addon.blender.data.pointcloud import new_pointcloud_object, read_positions
 from addon.core import effect_presets as core
 from addon.core import procedural
 
@@ -59,7 +60,7 @@ def test_preset_creates_its_keyframes(bpy_empty, name):
     bpy = bpy_empty
     knot, planet = _scene(bpy)
     preset = core.load(presets.find_preset(name, "effects", ".json"))
-    context = core.bounds_context(effect_presets.read_positions(knot.data), FRAME)
+    context = core.bounds_context(read_positions(knot.data), FRAME)
     assert _apply(bpy, knot, name, planet if name == "morph" else None) == {"FINISHED"}
     keys = _keys(knot)
     blocks = ([("splatline.look", preset.look)] if preset.look else []) + [
@@ -206,7 +207,7 @@ def test_explode_starts_at_the_current_frame(bpy_empty):
     bpy = bpy_empty
     knot, _ = _applied(bpy, "explode", target=False)
     (effect,) = knot.splatline.effects
-    size = core.bounds_context(effect_presets.read_positions(knot.data), AT)["size"]
+    size = core.bounds_context(read_positions(knot.data), AT)["size"]
     assert effect.type == "EXPLODE" and effect.explode_mode == "CENTER"
     assert effect.start_frame == pytest.approx(37.0)  # "start_frame": "frame"
     assert (effect.strength, effect.gravity) == pytest.approx((size, size))
@@ -240,7 +241,7 @@ def test_morph_turns_into_the_other_selected_object(bpy_empty):
     assert effect.type == "MORPH" and effect.target == planet
     assert _item(bpy, knot, 37).splats.count == len(knot.data.points)
     end = _item(bpy, knot, 85).splats  # 2 s later: the planet itself
-    want = effect_presets.read_positions(planet.data)
+    want = read_positions(planet.data)
     assert end.count == len(want)
     np.testing.assert_allclose(np.sort(end.positions, axis=0), np.sort(want, axis=0), atol=1e-4)
 
@@ -310,7 +311,7 @@ def test_bad_user_preset_changes_nothing_and_reports(bpy_empty, user_presets, na
     assert (len(bpy.data.objects), len(bpy.data.actions)) == counts  # no scratch left behind
     op = _Recorder(preset=name)
     with bpy.context.temp_override(active_object=knot, object=knot, selected_objects=[knot]):
-        assert effect_presets.SPLATLINE_OT_effect_preset_apply.execute(op, bpy.context) == {"CANCELLED"}
+        assert preset_ops.SPLATLINE_OT_effect_preset_apply.execute(op, bpy.context) == {"CANCELLED"}
     ((level, message),) = op.reports
     assert level == {"ERROR"} and name in message and says in message
     assert _state(knot) == before
@@ -363,5 +364,5 @@ def test_saving_where_it_cannot_write_reports(bpy_empty, user_presets):
     assert "Traceback" not in str(failed.value)
     op = _Recorder(name="Blocked")
     with bpy.context.temp_override(active_object=knot, object=knot, selected_objects=[knot]):
-        assert effect_presets.SPLATLINE_OT_effect_preset_add.execute(op, bpy.context) == {"CANCELLED"}
+        assert preset_ops.SPLATLINE_OT_effect_preset_add.execute(op, bpy.context) == {"CANCELLED"}
     assert [level for level, _ in op.reports] == [{"ERROR"}]

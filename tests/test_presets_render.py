@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 
 import numpy as np
-from engine_scene import add_camera, add_splats, exr_colour_formats, flat_splats, setup_render
+from testing.engine_scene import add_camera, add_splats, exr_colour_formats, flat_splats, setup_render
 
-from addon.blender.ops import presets
+from addon.blender.data import presets
 from addon.blender.compat import media_type
 
 EXPECT = {

@@ -6,7 +6,7 @@ import numpy as np
 
 from addon.core import quaternion
 from addon.core.colorspace import premultiplied_srgb_to_linear, srgb_to_linear
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 from addon.core.reframe import map_into
 from addon.core.sh import sh_to_rgb
 from reference_oracle import quat_matrix

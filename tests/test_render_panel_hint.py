@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from engine_scene import add_splats, flat_splats
+from testing.engine_scene import add_splats, flat_splats
 from test_ui_access import RecordingLayout, _check_names_exist
 
 

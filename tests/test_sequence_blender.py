@@ -12,7 +12,7 @@ import pytest
 
 from addon.core import sequence as core_sequence
 from addon.core.formats import read, write
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 
 N_FRAMES = 5
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")

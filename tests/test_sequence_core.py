@@ -10,7 +10,7 @@ from addon.core import sequence as seq
 from addon.core.bake import baked_splats, fold_color_matrix
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read, write
-from addon.core.formats.synth import random_splats
+from testing.synth import random_splats
 from addon.core.scene import RenderItem
 from addon.core.sh import C0, sh_basis
 

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from engine_scene import add_splats, flat_splats
+from testing.engine_scene import add_splats, flat_splats
 
 
 class RecordingLayout:

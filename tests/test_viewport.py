@@ -23,14 +23,14 @@ import pytest
 from addon.core import reference
 from addon.core.project import project
 from addon.core.scene import RenderOptions
-from viewport_scene import camera_for, draw_offscreen, psnr, two_objects
+from testing.viewport_scene import camera_for, draw_offscreen, psnr, two_objects
 
 PSNR_MIN = 60.0
 
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from addon.core.scene import RenderItem
-from viewport_scene import blob, camera_for, draw_offscreen, overlay_drawn, psnr
+from testing.viewport_scene import blob, camera_for, draw_offscreen, overlay_drawn, psnr
 
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True
@@ -185,7 +185,7 @@ def test_viewport_draws_after_an_f12_render(bpy_empty, gpu_ready, tmp_path):
     from addon.blender.evaluate.items import collect_items
     from addon.core import reference
     from addon.core.scene import RenderOptions
-    from engine_scene import add_camera, add_splats, setup_render
+    from testing.engine_scene import add_camera, add_splats, setup_render
 
     bpy = bpy_empty
     add_splats(bpy, "cap", blob(80, 1, seed=5, centre=(0, 0, 0), spread=0.4))

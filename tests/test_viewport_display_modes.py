@@ -28,7 +28,7 @@ from addon.core.formats import read
 from addon.core.project import project
 from addon.core.scene import RenderItem
 from gl_scenes import framing_camera, world_for
-from viewport_scene import draw_offscreen
+from testing.viewport_scene import draw_offscreen
 
 W, H = 160, 120
 COLOUR_TOL = 1e-4   # float32 SH and grading against float64: ~1e-6; 8-bit steps are 4e-3
@@ -37,7 +37,7 @@ EDGE_TOL = 1e-3     # relative: an ellipse edge within this is a float32 coin to
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True

@@ -10,7 +10,7 @@ import pytest
 from addon.core.camera import look_at, simple_camera
 from addon.core.scene import RenderItem
 from addon.core.splats import SplatSet
-from viewport_scene import blob, draw_offscreen, psnr
+from testing.viewport_scene import blob, draw_offscreen, psnr
 
 # bytes per texel, by the format name a GPUTexture reports
 TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4, "RGBA16": 8, "RG32F": 8, "R16F": 2}
@@ -18,7 +18,7 @@ TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4, "RGBA16": 8, "RG32F": 8, 
 
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
-    from addon.blender.viewport.headless import ensure_gpu
+    from testing.headless import ensure_gpu
 
     ensure_gpu()
     return True

@@ -15,13 +15,15 @@ _MODULES = (
     "ops.camera_track",   # File > Import > Splat Camera Track
     "ops.sequence",       # splat sequence import, bake
     "ops.effects",        # effect stack operators
+    "ui.object_panels",   # Object properties: sequence, look, effects (shown in this order)
     "viewport",           # SpaceView3D draw handler
     "ui.viewport",        # the viewport's display and statistics panels
     "render.engine",      # the Splatline RenderEngine
     "ui.render_panel",    # its Render-properties panel; opts built-in panels in (COMPAT_ENGINES)
     "ui.sidebar",         # the N sidebar's Splatline tab
-    "ops.presets",        # render-output preset menu and operators
-    "ops.effect_presets", # effect preset menu (appended to the effect stack panel)
+    "ops.presets",        # render-output preset add/remove operator
+    "ops.effect_presets", # effect preset operators
+    "ui.presets",         # preset menus, Output panel; appends to the effects panel
     "ui.menus",           # Object > Splatline (effect and bake operators, for menus and F3)
 )
 

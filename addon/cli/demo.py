@@ -77,7 +77,7 @@ def _check(args) -> tuple[int, int]:
 
 
 def _setup_render(bpy, scene, width, height, z_pass):
-    from ..blender.ops.presets import apply_render_preset
+    from ..blender.data.presets import apply_render_preset
 
     scene.render.engine = "SPLATLINE"
     scene.render.resolution_x, scene.render.resolution_y = width, height

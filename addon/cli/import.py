@@ -102,8 +102,8 @@ def run(args) -> int:
 
 
 def _apply_effect_presets(bpy, names, objects) -> None:
-    from ..blender.ops.effect_presets import apply_preset
-    from ..blender.ops.presets import find_preset
+    from ..blender.data.effect_presets import apply_preset
+    from ..blender.data.presets import find_preset
     from ..core import effect_presets
 
     frame = bpy.context.scene.frame_start

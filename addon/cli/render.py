@@ -244,7 +244,7 @@ def _set_rate_and_length(scene, options) -> None:
 
 
 def _apply_preset(name: str) -> None:
-    from ..blender.ops.presets import apply_render_preset
+    from ..blender.data.presets import apply_render_preset
     try:
         apply_render_preset(name)
     except KeyError as exc:

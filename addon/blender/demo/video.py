@@ -15,7 +15,7 @@ import os
 import bpy
 
 from ..compat import compositor_tree, new_compositor, set_file_format
-from ..ops.presets import apply_render_preset
+from ..data.presets import apply_render_preset
 
 SCENE_NAME = "Splatline Video"
 

@@ -1,2 +1,3 @@
-"""Operators (and the panels and menus that belong to one operator family): import/export,
-effect stack, sequences, render and effect presets, camera tracks."""
+"""Operators: import/export, effect stack, sequences, render and effect presets, camera
+tracks. Their panels and menus are ui/'s; library code they share with the command line
+(presets, effect presets) is data/'s."""

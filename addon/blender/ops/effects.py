@@ -1,4 +1,5 @@
-"""Effect-stack operators (add, remove, move, duplicate) and the Look / Effects panels.
+"""Effect-stack operators (add, remove, move, duplicate, add a gizmo); the Look and Effects
+panels that show them are ui/object_panels.py's.
 
 Keyframes and drivers on an effect live at 'splatline.effects[i].<prop>'; remove and move
 re-point those F-curves so animation stays with its effect.
@@ -12,7 +13,7 @@ from bpy.props import EnumProperty
 
 from ..data.pointcloud import is_splat_object
 from ..data.animation import channel_fcurves, remove_fcurve
-from ..props.effect import FIELDS, TYPES
+from ..props.effect import TYPES
 
 _PATH = re.compile(r"^splatline\.effects\[(\d+)\]")
 
@@ -154,88 +155,8 @@ class SPLATLINE_OT_effect_add_gizmo(_EffectOperator, bpy.types.Operator):
         return self.finish(context)
 
 
-class SPLATLINE_UL_effects(bpy.types.UIList):
-    def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_prop, _index=0):
-        icon = next(t[3] for t in TYPES if t[0] == item.type)
-        row = layout.row(align=True)
-        row.prop(item, "name", text="", emboss=False, icon=icon)
-        row.prop(item, "amount", text="")
-        row.prop(item, "enabled", text="", icon="HIDE_OFF" if item.enabled else "HIDE_ON", emboss=False)
-
-
-class _ObjectPanel:
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "object"
-
-    @classmethod
-    def poll(cls, context):
-        return is_splat_object(context.object)
-
-
-class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
-    bl_label = "Splatline Look"
-    bl_idname = "SPLATLINE_PT_look"
-
-    def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        look = context.object.splatline.look
-        for name in ("visible", "opacity", "size", "tint", "exposure", "saturation", "hue", "max_sh_degree"):
-            layout.prop(look, name)
-
-
-class SPLATLINE_PT_look_crop(_ObjectPanel, bpy.types.Panel):
-    bl_label = "Crop"
-    bl_idname = "SPLATLINE_PT_look_crop"
-    bl_parent_id = "SPLATLINE_PT_look"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        look = context.object.splatline.look
-        for shape, extent in (("crop_box", "crop_box_size"), ("crop_sphere", "crop_sphere_radius")):
-            layout.prop(look, f"use_{shape}")
-            col = layout.column()
-            col.active = getattr(look, f"use_{shape}")
-            for name in (f"{shape}_center", extent, f"{shape}_softness", f"{shape}_invert"):
-                col.prop(look, name)
-
-
-class SPLATLINE_PT_effects(_ObjectPanel, bpy.types.Panel):
-    bl_label = "Splatline Effects"
-    bl_idname = "SPLATLINE_PT_effects"
-
-    def draw(self, context):
-        layout = self.layout
-        settings = context.object.splatline
-        row = layout.row()
-        row.template_list("SPLATLINE_UL_effects", "", settings, "effects", settings, "active_effect", rows=4)
-        col = row.column(align=True)
-        col.operator_menu_enum(SPLATLINE_OT_effect_add.bl_idname, "type", text="", icon="ADD")
-        col.operator(SPLATLINE_OT_effect_remove.bl_idname, text="", icon="REMOVE")
-        col.operator(SPLATLINE_OT_effect_duplicate.bl_idname, text="", icon="DUPLICATE")
-        col.separator()
-        col.operator(SPLATLINE_OT_effect_move.bl_idname, text="", icon="TRIA_UP").direction = "UP"
-        col.operator(SPLATLINE_OT_effect_move.bl_idname, text="", icon="TRIA_DOWN").direction = "DOWN"
-        if not 0 <= settings.active_effect < len(settings.effects):
-            return
-        effect = settings.effects[settings.active_effect]
-        layout.use_property_split = True
-        for name in ("type", "enabled", "amount"):
-            layout.prop(effect, name)
-        row = layout.row(align=True)
-        row.prop(effect, "gizmo")
-        if effect.gizmo is None:
-            row.operator(SPLATLINE_OT_effect_add_gizmo.bl_idname, text="", icon="EMPTY_AXIS")
-        for name in FIELDS[effect.type]:
-            layout.prop(effect, name)
-
-
 classes = (SPLATLINE_OT_effect_add, SPLATLINE_OT_effect_remove, SPLATLINE_OT_effect_move,
-           SPLATLINE_OT_effect_duplicate, SPLATLINE_OT_effect_add_gizmo, SPLATLINE_UL_effects, SPLATLINE_PT_look,
-           SPLATLINE_PT_look_crop, SPLATLINE_PT_effects)
+           SPLATLINE_OT_effect_duplicate, SPLATLINE_OT_effect_add_gizmo)
 
 
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,6 +1,6 @@
-"""File > Import > Splat Sequence, File > Export > Evaluated Splats, the bake operator and
-the Object-properties panel of a sequence (the frame cache and its handlers are
-evaluate/sequence_frames.py's)."""
+"""File > Import > Splat Sequence, File > Export > Evaluated Splats and the bake operator
+(the frame cache and its handlers are evaluate/sequence_frames.py's; the Object-properties
+panel of a sequence is ui/object_panels.py's)."""
 from __future__ import annotations
 
 import os
@@ -10,7 +10,6 @@ from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ...core.errors import SplatFormatError
-from ..evaluate import sequence_frames as sequence_runtime
 from ..data.sequences import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, import_sequence,
                               remap_directories, restore_directories)
 from ..data.pointcloud import is_splat_object
@@ -183,41 +182,6 @@ class SPLATLINE_OT_bake_sequence(bpy.types.Operator):
         return self._finish(context)
 
 
-class OBJECT_PT_splatline_sequence(bpy.types.Panel):
-    bl_label = "Splat Sequence"
-    bl_idname = "OBJECT_PT_splatline_sequence"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "object"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    @classmethod
-    def poll(cls, context):
-        return _splat_object(context) is not None
-
-    def draw(self, context):
-        obj = _splat_object(context)
-        seq = obj.splatline.sequence
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(seq, "enabled")
-        if seq.enabled:
-            col = layout.column()
-            col.prop(seq, "directory")
-            col.label(text=f"{seq.prefix}{'#' * seq.digits}{seq.suffix}, {seq.frame_count} frames "
-                           f"from {seq.first_number}")
-            col.prop(seq, "start_frame")
-            col.prop(seq, "frame_offset")
-            col.prop(seq, "speed")
-            col.prop(seq, "loop_mode")
-            col.prop(seq, "cache_budget_mb")
-            col.prop(seq, "read_ahead")
-            problem = sequence_runtime.report_for(obj)
-            if problem:
-                layout.label(text=problem, icon="ERROR")
-        layout.operator(SPLATLINE_OT_bake_sequence.bl_idname, icon="RENDER_ANIMATION")
-
-
 def _menu_import(self, context):
     self.layout.operator(IMPORT_SCENE_OT_splatline_sequence.bl_idname, text="Splat Sequence (.ply, .splat, .spz)")
 
@@ -249,7 +213,7 @@ _save_remap = None
 
 
 _CLASSES = (IMPORT_SCENE_OT_splatline_sequence, EXPORT_SCENE_OT_splatline_evaluated,
-            SPLATLINE_OT_bake_sequence, OBJECT_PT_splatline_sequence)
+            SPLATLINE_OT_bake_sequence)
 
 
 _register_classes, _unregister_classes = classes_and_menus(

@@ -1,2 +1,3 @@
 """Panels and menus that only lay out properties and operators defined elsewhere:
-the N sidebar, Object > Splatline, the render-path panel, the viewport's panels."""
+the N sidebar, Object > Splatline, the Object-properties panels (sequence, look, effects),
+the render-path panel, the preset menus and Output panel, the viewport's panels."""

@@ -2,7 +2,7 @@
 
 Used by the render engine's Blender-GPU path (gpu_render.py) and by the tests: the
 very code the 3D viewport draws with, so the two cannot drift apart. Needs a current
-Blender GPU context: an engine with bl_use_gpu_context, the UI, or headless.ensure_gpu.
+Blender GPU context: an engine with bl_use_gpu_context, the UI, or (tests) testing/headless.ensure_gpu.
 """
 from __future__ import annotations
 

@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 
-from engine_scene import add_camera, add_splats, read_exr_parts, set_output, setup_render
-from viewport_scene import two_objects
+from .engine_scene import add_camera, add_splats, read_exr_parts, set_output, setup_render
+from .viewport_scene import two_objects
 
 
 def two_object_scene(bpy, testdata, width=160, height=120, transparent=True):

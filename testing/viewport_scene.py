@@ -5,7 +5,7 @@ import numpy as np
 
 from addon.core.camera import look_at, simple_camera
 from addon.core.formats import read
-from addon.core.formats.synth import random_splats
+from .synth import random_splats
 from addon.core.scene import RenderItem
 from addon.core.splats import SplatSet
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..splats import SplatSet
-from .ply import encode_vertices
+from addon.core.splats import SplatSet
+from addon.core.formats.ply import encode_vertices
 
 
 def random_splats(n: int, degree: int = 3, seed: int = 0, *, centre=(0.0, 0.0, 0.0),

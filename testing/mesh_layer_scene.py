@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from engine_scene import setup_render
-from holdout_scenes import guitar_scene
+from .engine_scene import setup_render
+from .holdout_scenes import guitar_scene
 
 # Viewport colours (Workbench draws them, lit by its studio light)
 COLOURS = {"front_cube": (0.1, 0.9, 0.1, 1.0), "back_cube": (0.1, 0.2, 0.95, 1.0),

@@ -109,11 +109,13 @@ def test_bad_capture_and_camera_on_blend_are_one_line(tmp_path):
     bad.write_bytes(b"not a ply")
     blend = tmp_path / "x.blend"
     blend.write_bytes(b"BLENDER")
-    for args, reason in [((tmp_path / "none.ply",), "none.ply: no such file"),
-                         ((bad,), "bad.ply: does not start like a .ply"),
-                         ((blend, "--camera", "front"), "applies to a capture")]:
+    # bad data exits 1; a flag that does not apply to a .blend is a usage error, exit 2 (as
+    # the framing flags on a .blend are)
+    for args, reason, code in [((tmp_path / "none.ply",), "none.ply: no such file", 1),
+                               ((bad,), "bad.ply: does not start like a .ply", 1),
+                               ((blend, "--camera", "front"), "applies to a capture", 2)]:
         run = _cli("render", *args, "--out", tmp_path / "out")
-        assert run.returncode == 1 and reason in run.stderr and "Traceback" not in run.stderr, run.stderr
+        assert run.returncode == code and reason in run.stderr and "Traceback" not in run.stderr, run.stderr
         assert not (tmp_path / "out").exists()
 
 

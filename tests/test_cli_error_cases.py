@@ -130,14 +130,14 @@ def test_engine_option_lists_only_render_settings(testdata, tmp_path):
     out = tmp_path / "out"
     rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", out, "--engine-option", "foo=bar",
                         timeout=120)
-    assert rc == 1
+    assert rc == 2  # a usage error
     line = one_line(err, "--engine-option 'foo=bar'")
     listed = line.split("NAME one of ", 1)[1].split(", ")
     assert "renderer" in listed and "key_bits" in listed
     assert "name" not in listed and "rna_type" not in listed  # every PropertyGroup's, not settings
     rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", out, "--engine-option", "name=x",
                         timeout=120)
-    assert rc == 1  # was accepted: it renamed the settings group
+    assert rc == 2  # a usage error; it was accepted: it renamed the settings group
     one_line(err, "--engine-option 'name=x'")
     assert not out.exists()
 

@@ -51,7 +51,7 @@ def test_render_preset_picks_the_output(small_blend, tmp_path):
 
 def test_render_unknown_preset_is_one_line(small_blend, tmp_path):
     proc = _cli("render", small_blend, "--out", tmp_path / "o", "--preset", "nope")
-    assert proc.returncode != 0
+    assert proc.returncode == 2  # a usage error
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "nope" in lines[0] and "exr_half_multilayer" in lines[0]
 

@@ -113,19 +113,21 @@ def test_mp4_and_options(guitar_blend, tmp_path, bpy_empty):
     assert movie.frame_duration == 3 and tuple(movie.size) == (80, 60)
 
 
-@pytest.mark.parametrize("args, message", [
-    (("missing.blend", "--out", "o"), "missing.blend: no such .blend file"),
-    (("{blend}", "--out", "o", "--frames", "5-2"), "--frames '5-2': the range ends before it starts"),
-    (("{blend}", "--out", "o", "--resolution", "12"), "--resolution '12': expected WxH"),
-    (("{blend}", "--out", "o", "--engine-option", "warp=9"), "--engine-option 'warp=9'"),
-    (("{blend}", "--out", "o", "--engine-option", "key_bits=8"), "key_bits: '8' is not one of 16, 32"),
-    (("{blend}", "--out", "o", "--format", "MP4", "--resolution", "81x60"), "needs an even frame size"),
+# A bad option is a usage error (exit 2); a file that cannot serve is a data error (exit 1):
+# the .blend missing, or its frame size (here set by the flag) odd for H.264.
+@pytest.mark.parametrize("args, message, code", [
+    (("missing.blend", "--out", "o"), "missing.blend: no such .blend file", 1),
+    (("{blend}", "--out", "o", "--frames", "5-2"), "--frames '5-2': the range ends before it starts", 2),
+    (("{blend}", "--out", "o", "--resolution", "12"), "--resolution '12': expected WxH", 2),
+    (("{blend}", "--out", "o", "--engine-option", "warp=9"), "--engine-option 'warp=9'", 2),
+    (("{blend}", "--out", "o", "--engine-option", "key_bits=8"), "key_bits: '8' is not one of 16, 32", 2),
+    (("{blend}", "--out", "o", "--format", "MP4", "--resolution", "81x60"), "needs an even frame size", 1),
 ])
-def test_errors_are_one_line(guitar_blend, tmp_path, args, message):
+def test_errors_are_one_line(guitar_blend, tmp_path, args, message, code):
     args = [str(a).format(blend=guitar_blend) for a in args]
     args[args.index("--out") + 1] = str(tmp_path / "o")
     result = _run(*args)
-    assert result.returncode == 1
+    assert result.returncode == code, result.stderr
     errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and message in errors[0], result.stderr
     assert "Traceback" not in result.stderr

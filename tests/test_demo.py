@@ -204,11 +204,12 @@ def test_file_replaces_the_knot(tmp_path, testdata, bpy_empty):
 
 
 def test_bad_arguments_fail_with_one_line(tmp_path):
-    for args, needle in ((["--frames", "3"], "--frames 3"), (["--resolution", "95x54"], "even"),
-                         (["--file", str(tmp_path / "missing.ply")], "missing.ply")):
+    # a bad option: usage, exit 2; a missing capture: data, exit 1
+    for args, needle, code in ((["--frames", "3"], "--frames 3", 2), (["--resolution", "95x54"], "even", 2),
+                               (["--file", str(tmp_path / "missing.ply")], "missing.ply", 1)):
         proc = subprocess.run([sys.executable, "-m", "addon", "demo", "--out", str(tmp_path), *args],
                               cwd=ROOT, capture_output=True, text=True, timeout=60)
-        assert proc.returncode == 1
+        assert proc.returncode == code, proc.stderr
         assert needle in proc.stderr and "Traceback" not in proc.stderr
 
 

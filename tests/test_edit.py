@@ -108,5 +108,5 @@ def test_cli_merge_edit_and_stats(testdata, tmp_path):
 ])
 def test_cli_bad_flags_one_line(testdata, tmp_path, flags, message):
     r = cli("convert", testdata / "test64.ply", tmp_path / "o.ply", *flags)
-    assert r.returncode == 1 and r.stderr.count("\n") == 1 and message in r.stderr
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and message in r.stderr  # usage
     assert not (tmp_path / "o.ply").exists()

@@ -158,12 +158,13 @@ def test_cli_converts_a_splatline_object_from_a_blend(bpy_empty, testdata, tmp_p
     merged, test64 = formats.read(tmp_path / "m.ply"), formats.read(testdata / "test64.ply")
     assert merged.count == 164 and merged.sh_degree == 1
     assert np.array_equal(merged.positions[100:], test64.positions)
-    for args, needle in ((["--object", "test64", testdata / "test64.ply", tmp_path / "x.ply"],
-                          "--object names splat objects of a .blend input; none was given"),
-                         ([blend, blend, tmp_path / "x.ply"], "one .blend input at a time, not 2"),
-                         ([tmp_path / "none.blend", tmp_path / "x.ply"], f"{tmp_path / 'none.blend'}: no such file")):
+    for args, needle, code in ((["--object", "test64", testdata / "test64.ply", tmp_path / "x.ply"],
+                                "--object names splat objects of a .blend input; none was given", 2),
+                               ([blend, blend, tmp_path / "x.ply"], "one .blend input at a time, not 2", 2),
+                               ([tmp_path / "none.blend", tmp_path / "x.ply"],
+                                f"{tmp_path / 'none.blend'}: no such file", 1)):
         run = _cli_convert(*args)
-        assert run.returncode == 1 and run.stderr.startswith("error: ") and needle in run.stderr, run.stderr
+        assert run.returncode == code and run.stderr.startswith("error: ") and needle in run.stderr, run.stderr
         assert len(run.stderr.splitlines()) == 1 and not (tmp_path / "x.ply").exists()
 
 

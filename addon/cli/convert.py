@@ -14,7 +14,7 @@ from ..core.select import select
 from ..core.splats import AXES
 from ..core.validate import POLICIES, check_values
 from ..core.edit import merge
-from . import UserError, edits
+from . import UsageError, edits
 from .capture_scene import is_blend
 from .writable import check_output_file
 
@@ -91,9 +91,9 @@ def _options(args, splats, report):
 def _check_inputs(args) -> None:
     blends = [p for p in args.input if is_blend(p)]
     if len(blends) > 1:
-        raise UserError(f"one .blend input at a time, not {len(blends)} ({', '.join(blends)})")
+        raise UsageError(f"one .blend input at a time, not {len(blends)} ({', '.join(blends)})")
     if args.object and not blends:
-        raise UserError("--object names splat objects of a .blend input; none was given")
+        raise UsageError("--object names splat objects of a .blend input; none was given")
 
 
 def run(args) -> int:

@@ -53,19 +53,19 @@ def configure(parser):
 def _check(args) -> tuple[int, int]:
     width, height = parse_resolution(args.resolution)
     if width % 2 or height % 2:
-        raise UserError(f"--resolution {args.resolution}: H.264 needs an even width and height")
+        raise UsageError(f"--resolution {args.resolution}: H.264 needs an even width and height")
     if args.frames < MIN_FRAMES:
-        raise UserError(f"--frames {args.frames}: the animation needs at least {MIN_FRAMES} frames")
+        raise UsageError(f"--frames {args.frames}: the animation needs at least {MIN_FRAMES} frames")
     if args.frames > MAX_FRAME:
         raise UsageError(f"--frames {args.frames}: at most {MAX_FRAME} (Blender's limit)")
     if args.splats < 1:
-        raise UserError(f"--splats {args.splats}: must be at least 1")
+        raise UsageError(f"--splats {args.splats}: must be at least 1")
     check_frame_memory(f"--resolution {args.resolution}", width, height)
     # the showcase's splats, its morph target and their evaluated copy, with degree-3 SH
     budget.check(f"--splats {args.splats}", 3 * splat_bytes(args.splats, 45), "--max-memory",
                  "the splats, the morph target and their evaluated copy")
     if args.fps < 1:
-        raise UserError(f"--fps {args.fps}: must be at least 1")
+        raise UsageError(f"--fps {args.fps}: must be at least 1")
     if os.path.exists(args.out) and not os.path.isdir(args.out):  # os.makedirs: "File exists"
         raise UserError(f"--out {args.out}: exists and is not a folder (the demo writes "
                         "demo.blend, exr/, demo.mp4 and demo.png into a folder)")

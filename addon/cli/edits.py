@@ -4,7 +4,7 @@ bands, then decimation, so a box or sphere is given in the output's coordinates.
 from __future__ import annotations
 
 from ..core import edit
-from . import UserError
+from . import UsageError
 
 
 def add_arguments(parser) -> None:
@@ -33,11 +33,11 @@ def check(args) -> None:
         if args.decimate is not None:
             edit.parse_count(args.decimate, 1)
     except ValueError as exc:
-        raise UserError(str(exc)) from None
+        raise UsageError(str(exc)) from None
     if args.scale is not None and not args.scale > 0:
-        raise UserError(f"--scale must be a positive number, not {args.scale}")
+        raise UsageError(f"--scale must be a positive number, not {args.scale}")
     if args.keep_sphere is not None and args.keep_sphere[3] < 0:
-        raise UserError(f"--keep-sphere radius must be >= 0, not {args.keep_sphere[3]}")
+        raise UsageError(f"--keep-sphere radius must be >= 0, not {args.keep_sphere[3]}")
 
 
 def apply(args, splats):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 
 from ..core.errors import SplatFormatError
-from . import UserError
+from . import UsageError, UserError
 from ..core.splats import AXES
 from . import framing_options
 
@@ -43,9 +43,9 @@ def configure(parser):
 
 def _check_args(args) -> None:
     if not 0.0 <= args.min_opacity <= 1.0:
-        raise UserError(f"--min-opacity {args.min_opacity:g} is outside 0..1")
+        raise UsageError(f"--min-opacity {args.min_opacity:g} is outside 0..1")
     if args.max_count < 0:
-        raise UserError(f"--max-count {args.max_count} is negative")
+        raise UsageError(f"--max-count {args.max_count} is negative")
     out_dir = os.path.dirname(os.path.abspath(args.blend))
     if not os.path.isdir(out_dir):
         raise UserError(f"{args.blend}: folder {out_dir} does not exist")
@@ -111,16 +111,16 @@ def _apply_effect_presets(bpy, names, objects) -> None:
         try:
             preset = effect_presets.load(find_preset(name, "effects", ".json"))
         except (KeyError, effect_presets.PresetError) as exc:
-            raise UserError(f"--effect-preset: {exc.args[0]}") from None
+            raise UsageError(f"--effect-preset: {exc.args[0]}") from None
         morphs = any(block.type == "MORPH" for block in preset.effects)
         if morphs and len(objects) != 2:
-            raise UserError(f"--effect-preset {name}: morphs the first file into the second, "
+            raise UsageError(f"--effect-preset {name}: morphs the first file into the second, "
                             f"so it needs exactly two files ({len(objects)} given)")
         for obj in objects[:1] if morphs else objects:
             try:  # all or nothing per object; no .blend is written after an error
                 apply_preset(obj, preset, frame, target=objects[1] if morphs else None)
             except effect_presets.PresetError as exc:
-                raise UserError(f"--effect-preset: {exc}") from None
+                raise UsageError(f"--effect-preset: {exc}") from None
         print(f"{preset.label}: keyed from frame {frame}")
 
 

@@ -89,11 +89,11 @@ def configure(parser):
 def parse_frames(text: str) -> tuple[int, int]:
     match = re.fullmatch(r"\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*)?", text or "")
     if match is None:
-        raise UserError(f"--frames {text!r}: expected A-B or a single frame")
+        raise UsageError(f"--frames {text!r}: expected A-B or a single frame")
     start = int(match.group(1))
     end = int(match.group(2)) if match.group(2) is not None else start
     if end < start:
-        raise UserError(f"--frames {text!r}: the range ends before it starts")
+        raise UsageError(f"--frames {text!r}: the range ends before it starts")
     if start < 0 or end > MAX_FRAME:
         raise UsageError(f"--frames {text.strip()}: frames must lie in 0-{MAX_FRAME} (Blender's limit)")
     return start, end
@@ -102,7 +102,7 @@ def parse_frames(text: str) -> tuple[int, int]:
 def parse_resolution(text: str) -> tuple[int, int]:
     match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
     if match is None or int(match.group(1)) < 1 or int(match.group(2)) < 1:
-        raise UserError(f"--resolution {text!r}: expected WxH, e.g. 1920x1080")
+        raise UsageError(f"--resolution {text!r}: expected WxH, e.g. 1920x1080")
     width, height = int(match.group(1)), int(match.group(2))
     if not (MIN_RESOLUTION <= width <= MAX_RESOLUTION and MIN_RESOLUTION <= height <= MAX_RESOLUTION):
         raise UsageError(f"--resolution {text.strip()}: width and height must lie in "
@@ -129,22 +129,22 @@ def set_engine_option(settings, text: str) -> None:
              if p.identifier not in inherited and p.type != "POINTER"}
     if not sep or name not in props:
         known = ", ".join(props)
-        raise UserError(f"--engine-option {text!r}: expected NAME=VALUE with NAME one of {known}")
+        raise UsageError(f"--engine-option {text!r}: expected NAME=VALUE with NAME one of {known}")
     prop = props[name]
     if prop.type == "BOOLEAN":
         if value.lower() not in _BOOL:
-            raise UserError(f"--engine-option {name}: {value!r} is not on/off")
+            raise UsageError(f"--engine-option {name}: {value!r} is not on/off")
         setattr(settings, name, _BOOL[value.lower()])
     elif prop.type == "ENUM":
         choices = {item.identifier.upper(): item.identifier for item in prop.enum_items}
         if value.upper() not in choices:
-            raise UserError(f"--engine-option {name}: {value!r} is not one of {', '.join(choices.values())}")
+            raise UsageError(f"--engine-option {name}: {value!r} is not one of {', '.join(choices.values())}")
         setattr(settings, name, choices[value.upper()])
     else:
         try:
             setattr(settings, name, int(value) if prop.type == "INT" else float(value))
         except (TypeError, ValueError) as exc:
-            raise UserError(f"--engine-option {name}: {value!r}: {exc}") from None
+            raise UsageError(f"--engine-option {name}: {value!r}: {exc}") from None
 
 
 def configure_output(scene, fmt: str, out_dir: str, half: bool = False) -> None:
@@ -248,7 +248,7 @@ def _apply_preset(name: str) -> None:
     try:
         apply_render_preset(name)
     except KeyError as exc:
-        raise UserError(f"--preset: {exc.args[0]}") from None
+        raise UsageError(f"--preset: {exc.args[0]}") from None
 
 
 def _check_args(args) -> None:
@@ -274,7 +274,7 @@ def _check_args(args) -> None:
             raise UsageError(f"--half: half floats are for EXR output, not {known}{why}; "
                              "use --format EXR, or drop --half")
     if args.camera is not None and is_blend(args.blend):
-        raise UserError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
+        raise UsageError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
     args.framing = framing_options.read(args, for_blend=is_blend(args.blend))
 
 

@@ -32,6 +32,7 @@ from .render_job import render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
 from ..core import budget
+from ..core.formats import table
 
 FORMATS = ("EXR", "PNG", "MP4")
 _BOOL = {"1": True, "true": True, "on": True, "yes": True,
@@ -53,7 +54,7 @@ UNREPRODUCIBLE_STAMPS = ("use_stamp_date", "use_stamp_render_time", "use_stamp_f
 
 def configure(parser):
     parser.add_argument("blend", metavar="SCENE.blend|CAPTURE",
-                        help="the .blend to render, or a splat file (.ply, .spz, .splat, ...) to "
+                        help=f"the .blend to render, or a splat file ({table.readable_help()}) to "
                              "import and render under an added camera")
     parser.add_argument("--camera", metavar="orbit|front|TRACK.json",
                         help="for a CAPTURE: " + CAMERA_HELP)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import base64
 import contextlib
-import io
+import inspect
 import json
 import re
 import struct
@@ -63,6 +63,20 @@ def test_each_row_reads_its_capture(testdata, tmp_path, name):
     lo, hi = source.positions.min(axis=0), source.positions.max(axis=0)
     np.testing.assert_allclose(splats.positions.min(axis=0), lo, atol=0.02 * float(np.max(hi - lo)))
     np.testing.assert_allclose(splats.positions.max(axis=0), hi, atol=0.02 * float(np.max(hi - lo)))
+
+
+@pytest.mark.parametrize("fmt", table.rows(), ids=lambda r: r.name)
+def test_rows_follow_the_naming_pattern(fmt):
+    """Module m holds read_m; write_m sits in m or m_write; both take the one signature."""
+    module, reader = fmt.reader.split(":")
+    assert reader == f"read_{module}"
+    assert list(inspect.signature(table._resolve(fmt.reader)).parameters)[:3] == ["path", "max_degree", "max_splats"]
+    if fmt.writer is not None:
+        writer_module, writer = fmt.writer.split(":")
+        assert writer == f"write_{module}" and writer_module in (module, f"{module}_write")
+        params = inspect.signature(table._resolve(fmt.writer)).parameters
+        assert list(params)[:2] == ["path", "splats"]
+        assert set(dict(fmt.writer_args)) | set(fmt.options) <= set(params)
 
 
 def _suffixes_named_in(text: str) -> set:

@@ -2,7 +2,9 @@
 INRIA PLY read into a SplatSet both ways, in the same run, runs interleaved, medians.
 
 plyfile parses the header and maps or reads the body; the records then go through the same
-decode_vertices as ours, so the rows differ only in header parsing and body loading.
+decode_vertices as ours, so the rows differ only in header parsing and body loading. Then a
+hostile header (an unterminated comment line of --bomb-mb MB): the peak of the memory each
+parser allocates (tracemalloc) while it refuses the file.
 
     python -m bench plyfile
     python -m bench.plyfile_bench [--count N] [--runs R]
@@ -13,6 +15,7 @@ import argparse
 import statistics
 import tempfile
 import time
+import tracemalloc
 import pathlib
 
 import numpy as np
@@ -33,6 +36,7 @@ def main(argv=()) -> None:
     ap.add_argument("--count", type=int, default=1_000_000)
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--small", type=int, default=20_000, help="splats of the unmapped plyfile read")
+    ap.add_argument("--bomb-mb", type=int, default=300, help="size of the hostile header file")
     args = ap.parse_args(list(argv))
     try:
         import plyfile
@@ -40,7 +44,7 @@ def main(argv=()) -> None:
         print("plyfile: n/a (not installed)")
         return
     readers = {
-        "Splatline read_ply (plyheader + np.fromfile)": lambda p: read_ply(p),
+        "Splatline read_ply (plyheader + np.memmap)": lambda p: read_ply(p),
         "plyfile PlyData.read, mmap=True": lambda p: plyfile_read(p, True),
     }
     with tempfile.TemporaryDirectory() as tmp:
@@ -68,6 +72,28 @@ def main(argv=()) -> None:
         print(f"  {name:<48} {med * 1e3:8.0f} ms  x{med / base:.2f}")
     print(f"{args.small:,} splats, one run each: Splatline {unmapped[0] * 1e3:.0f} ms, plyfile mmap=False "
           f"{unmapped[1] * 1e3:.0f} ms (x{unmapped[1] / unmapped[0]:.0f})")
+    header_bomb(args.bomb_mb)
+
+
+def header_bomb(mb: int) -> None:
+    import plyfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = pathlib.Path(tmp) / "bomb.ply"
+        with open(path, "wb") as f:
+            f.write(b"ply\nformat binary_little_endian 1.0\ncomment ")
+            f.write(b"a" * (mb << 20))
+        print(f"hostile header ({mb} MB comment line, no end_header): peak allocation while refusing it")
+        for name, fn in (("Splatline read_ply", read_ply), ("plyfile PlyData.read", plyfile.PlyData.read)):
+            tracemalloc.start()
+            try:
+                fn(str(path))
+            except Exception as exc:  # each refuses it in its own words
+                reason = f"{type(exc).__name__}: {str(exc)[-60:]}"
+            finally:
+                peak = tracemalloc.get_traced_memory()[1]
+                tracemalloc.stop()
+            print(f"  {name:<24} {peak / 2**20:8.1f} MB  ({reason})")
 
 
 def _seconds(fn) -> float:

@@ -36,7 +36,7 @@ def main(argv=()) -> None:
     ap.add_argument("--count", type=int, default=1_000_000)
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--small", type=int, default=20_000, help="splats of the unmapped plyfile read")
-    ap.add_argument("--bomb-mb", type=int, default=300, help="size of the hostile header file")
+    ap.add_argument("--bomb-mb", type=int, default=100, help="size of the hostile header file")
     args = ap.parse_args(list(argv))
     try:
         import plyfile

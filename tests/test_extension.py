@@ -17,7 +17,8 @@ import importlib.machinery, site, sys
 
 class WheelsOnly:
     # The venv has its own moderngl, glcontext and plyfile: hide those, so that what gets
-    # imported is what the extension's wheels installed for this Python.
+    # imported is what the extension's wheels installed for this Python (plyfile: none, so
+    # an add-on import of it fails here).
     venv = set(site.getsitepackages())
 
     @classmethod
@@ -108,10 +109,10 @@ def test_one_zip_per_platform(extension_zips):
         # Wheels for this platform only, one per Python the platform's Blenders run.
         wheels = [n.split("/", 1)[1][:-4].split("-") for n in names if n.startswith("wheels/")]
         tag, pythons = PLATFORM_WHEELS[platform]
-        assert sorted((w[0], w[2]) for w in wheels if w[0] != "plyfile") == sorted(
+        # (no plyfile: the add-on reads PLY itself, docs/DESIGN.md)
+        assert sorted((w[0], w[2]) for w in wheels) == sorted(
             (name, py) for name in ("glcontext", "moderngl") for py in pythons), platform
-        assert all(tag in w[4].split(".") for w in wheels if w[0] != "plyfile"), platform
-        assert [w[4] for w in wheels if w[0] == "plyfile"] == ["any"], platform
+        assert all(tag in w[4].split(".") for w in wheels), platform
         # Blender's own builder accepts the built zip as it is.
         proc = subprocess.run([sys.executable, ext, "validate", str(zip_path)],
                               capture_output=True, text=True)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 
 from ..core.errors import SplatFormatError
-from ..core.formats import WRITE_FORMATS, WRITE_MAX_DEGREE, format_for_output, read_with_report, write
+from ..core.formats import format_for_output, read_with_report, table, write
 from ..core.select import select
 from ..core.splats import AXES
 from ..core.validate import POLICIES, check_values
@@ -20,10 +20,10 @@ from .writable import check_output_file
 
 
 def configure(parser):
-    parser.add_argument("input", nargs="+", help="a .ply, compressed .ply, .splat, .spz, .sog (or a SOG "
-                        "meta.json), .glb or .gltf file, or a .blend whose splat objects --object "
-                        "names; several are merged into one output")
-    parser.add_argument("output", help=f"output path; its extension picks the format ({', '.join(WRITE_FORMATS)}; "
+    parser.add_argument("input", nargs="+", help=f"a {table.readable_help()} file, or a .blend whose "
+                        "splat objects --object names; several are merged into one output")
+    writable = ", ".join(r.name for r in table.rows(writable=True))
+    parser.add_argument("output", help=f"output path; its extension picks the format ({writable}; "
                                        "a path named meta.json writes an unbundled SOG beside it)")
     parser.add_argument("--spz-version", type=int, choices=(3, 4), default=4,
                         help="SPZ version to write: 4 (zstd streams, default) or 3 (gzip)")
@@ -109,5 +109,5 @@ def run(args) -> int:
     write(args.output, splats, fmt, **({"version": args.spz_version} if fmt == "spz" else {}))
     source = ", ".join(f"{r.path} ({r.format}, {r.count_in_file} splats)" for _, r in loaded)
     print(f"{source} -> {args.output} "
-          f"({fmt}, {splats.count} splats, SH degree {min(splats.sh_degree, WRITE_MAX_DEGREE[fmt])})")
+          f"({fmt}, {splats.count} splats, SH degree {min(splats.sh_degree, table.row(fmt).max_sh_degree)})")
     return 0

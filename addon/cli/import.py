@@ -12,14 +12,14 @@ from __future__ import annotations
 import os
 
 from ..core.errors import SplatFormatError
+from ..core.formats import table
 from . import UsageError, UserError
 from ..core.splats import AXES
 from . import framing_options
 
 
 def configure(parser):
-    parser.add_argument("files", nargs="+", metavar="FILE", help=".ply (float or compressed), .splat, .spz, .sog (or a SOG "
-                        "meta.json), .glb or .gltf (KHR_gaussian_splatting) files")
+    parser.add_argument("files", nargs="+", metavar="FILE", help=f"{table.readable_help()} files")
     parser.add_argument("--blend", required=True, metavar="OUT.blend", help="the .blend file to write")
     parser.add_argument("--max-sh-degree", type=int, default=3, choices=range(4), metavar="N",
                         help="keep SH bands up to N (0..3, default 3)")

@@ -7,11 +7,11 @@ import os
 import numpy as np
 
 from ..core.edit import statistics
-from ..core.formats import read_with_report
+from ..core.formats import read_with_report, table
 
 
 def configure(parser):
-    parser.add_argument("file", help="a .ply, compressed .ply, .splat, .spz, .sog (or a SOG meta.json), .glb or .gltf file")
+    parser.add_argument("file", help=f"a {table.readable_help()} file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--max-splats", type=int, default=None, metavar="N",
                         help="splat budget: refuse a file claiming more than N splats before "

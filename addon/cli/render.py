@@ -35,6 +35,7 @@ from .render_job import render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
 from ..core import budget
+from ..core.formats import table
 
 FORMATS = ("EXR", "PNG", "MP4")
 EXR_FORMATS = ("OPEN_EXR", "OPEN_EXR_MULTILAYER")  # Blender's file formats that --half applies to
@@ -57,7 +58,7 @@ UNREPRODUCIBLE_STAMPS = ("use_stamp_date", "use_stamp_render_time", "use_stamp_f
 
 def configure(parser):
     parser.add_argument("blend", metavar="SCENE.blend|CAPTURE",
-                        help="the .blend to render, or a splat file (.ply, .spz, .splat, ...) to "
+                        help=f"the .blend to render, or a splat file ({table.readable_help()}) to "
                              "import and render under an added camera")
     parser.add_argument("--out", required=True, metavar="DIR",
                         help="folder for the frames (frame_0001.png, ...) or the movie "

@@ -1,6 +1,6 @@
 """Per-splat preprocessing in float64, vectorised over splats: the reference's
 projection, shared with test oracles. INRIA's forward pass (preprocessCUDA) with
-Blender's camera; see ../../../shared/DESIGN.md "Rendering semantics".
+Blender's camera; see docs/DESIGN.md "Rendering semantics".
 
 Conventions and the choices the renderers must agree on:
 - Everything is computed camera-relative: the object-to-camera matrix is

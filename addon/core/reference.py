@@ -1,5 +1,5 @@
 """The float64 reference renderer: per pixel, exact, slow. The oracle for every
-other renderer (semantics in ../../../shared/DESIGN.md, projection in project.py).
+other renderer (semantics in docs/DESIGN.md, projection in project.py).
 
 - Order: one global order over every item's splats by the view depth of the
   centre. Exact ties: the lower global index (item order, then splat order) is

@@ -154,4 +154,4 @@ def export_object(obj, path, evaluated=False, depsgraph=None, axes=None) -> None
     splats = object_splats(obj, evaluated, depsgraph, axes)
     if splats.count == 0:
         raise SplatFormatError(path, f"object {obj.name!r} holds no splats to export")
-    formats.write(path, reframe(splats, WRITE_AXES[fmt]), fmt)
+    formats.write(path, reframe(splats, formats.table.row(fmt).axes), fmt)

@@ -8,6 +8,7 @@ from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProper
 from bpy_extras.io_utils import ExportHelper, ImportHelper, poll_file_object_drop
 
 from ...core.errors import SplatFormatError
+from ...core.formats import table
 from ..data.files import export_object, import_file_with_report, object_axes
 from ..data.pointcloud import is_splat_object
 from ..registration import classes_and_menus
@@ -40,11 +41,9 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
     """Import Gaussian splat captures as PointCloud objects"""
 
     bl_idname = "import_scene.splatline_gaussians"
-    bl_label = "Gaussian Splats (.ply, .splat, .spz, .sog, .glb)"
+    bl_label = "Gaussian Splats"  # and filter_glob: from the format table (_from_table)
     bl_options = {"REGISTER", "UNDO", "PRESET"}
 
-    filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;meta.json;*.glb;*.gltf",
-                                options={"HIDDEN"})
     directory: StringProperty(subtype="DIR_PATH", options={"SKIP_SAVE", "HIDDEN"})
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"SKIP_SAVE", "HIDDEN"})
 
@@ -116,37 +115,32 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
             layout.prop(self, name)
 
 
-# (enum id, label, description, file extension)
-_EXPORT_FORMATS = (
-    ("PLY", "INRIA PLY (.ply)", "Float PLY with every SH band: a lossless round trip", ".ply"),
-    ("COMPRESSED_PLY", "Compressed PLY (.compressed.ply)",
-     "PlayCanvas/SuperSplat packed PLY: about a quarter of the float PLY", ".compressed.ply"),
-    ("SPLAT", "antimatter15 (.splat)", "Compact 32-byte splats, no higher SH", ".splat"),
-    ("SPZ", "Niantic SPZ (.spz)", "SPZ v4 (zstd streams), about a tenth of the float PLY", ".spz"),
-    ("SOG", "PlayCanvas SOG (.sog)", "SOG v2 bundled: WebP images in a zip, the smallest", ".sog"),
-    ("GLB", "glTF binary (.glb)", "KHR_gaussian_splatting glTF, one binary file", ".glb"),
-    ("GLTF", "glTF (.gltf)", "KHR_gaussian_splatting glTF with embedded buffers", ".gltf"),
-)
-_EXPORT_EXT = {key: ext for key, _, _, ext in _EXPORT_FORMATS}
+def _export_formats() -> tuple:
+    """(enum id, label, description, file extension) of each writable row of the format table."""
+    return tuple((r.name.upper(), f"{r.label} ({r.extensions[0]})", r.description, r.extensions[0])
+                 for r in table.rows(writable=True))
+
+
+def __getattr__(name):
+    if name == "_EXPORT_EXT":  # enum id -> extension, as the table holds it now
+        return {key: ext for key, _, _, ext in _export_formats()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
     """Export the selected splat objects' data (object-local) to any writable splat format"""
 
     bl_idname = "export_scene.splatline_gaussians"
-    bl_label = "Gaussian Splats (.ply, .splat, .spz, .sog, .glb)"
+    bl_label = "Gaussian Splats"  # and filter_glob, file_format: from the format table (_from_table)
     bl_options = {"REGISTER", "PRESET"}
 
-    filter_glob: StringProperty(default="*.ply;*.splat;*.spz;*.sog;*.glb;*.gltf", options={"HIDDEN"})
-    file_format: EnumProperty(name="Format", default="PLY",
-                              items=[item[:3] for item in _EXPORT_FORMATS])
     data_axes: EnumProperty(name="Data Axes", items=DATA_AXES_ITEMS, default="AUTO",
                             description="The axis convention the objects' data is in; the file is "
                                         "written in its format's own")
 
     @property
     def filename_ext(self):
-        return _EXPORT_EXT[self.file_format]
+        return table.row(self.file_format.lower()).extensions[0]
 
     @classmethod
     def poll(cls, context):
@@ -155,7 +149,7 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
     def _root(self) -> str:
         """The chosen path without any known extension: the format picks the extension."""
         path = self.filepath
-        for ext in sorted(set(_EXPORT_EXT.values()), key=len, reverse=True):
+        for ext in sorted({e for r in table.rows(writable=True) for e in r.extensions}, key=len, reverse=True):
             if path.lower().endswith(ext):
                 return path[: -len(ext)]
         return path
@@ -195,8 +189,8 @@ class IO_FH_splatline_gaussians(bpy.types.FileHandler):
     # tell a splat glTF from a plain one, and listing the extensions would put Splatline in
     # front of every glTF drop. Dropped glTF stays Blender's own importer's; splat glTF comes
     # in through File > Import > Gaussian Splats, which names Blender's importer for a plain
-    # one (formats/gltf.py). Not meta.json either: any .json drop would be offered to us.
-    bl_file_extensions = ".ply;.splat;.spz;.sog"
+    # one (formats/gltf.py); their rows say drop=False. Not meta.json either: any .json drop
+    # would be offered to us. bl_file_extensions: the rows' (_from_table).
 
     @classmethod
     def poll_drop(cls, context):
@@ -204,16 +198,41 @@ class IO_FH_splatline_gaussians(bpy.types.FileHandler):
 
 
 def _menu_import(self, context):
-    self.layout.operator(IMPORT_SCENE_OT_splatline_gaussians.bl_idname, text="Gaussian Splats (.ply, .splat, .spz, .sog, .glb)")
+    self.layout.operator(IMPORT_SCENE_OT_splatline_gaussians.bl_idname, text=table.menu_label(table.rows()))
 
 
 def _menu_export(self, context):
     self.layout.operator(EXPORT_SCENE_OT_splatline_gaussians.bl_idname,
-                         text="Gaussian Splats (.ply, .splat, .spz, .sog, .glb)")
+                         text=table.menu_label(table.rows(writable=True)))
+
+
+def _from_table() -> None:
+    """Labels, file filters, export choices and drop extensions from the format table, set
+    on the classes before Blender registers them (a row added later shows after the next
+    register)."""
+    readable, writable = table.rows(), table.rows(writable=True)
+    imp, exp = IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians
+    imp.bl_label, exp.bl_label = table.menu_label(readable), table.menu_label(writable)
+    _put_first(imp, filter_glob=StringProperty(default=table.file_glob(readable), options={"HIDDEN"}))
+    _put_first(exp, filter_glob=StringProperty(default=table.file_glob(writable, with_names=False), options={"HIDDEN"}),
+               file_format=EnumProperty(name="Format", default=writable[0].name.upper(),
+                                        items=[item[:3] for item in _export_formats()]))
+    IO_FH_splatline_gaussians.bl_file_extensions = ";".join(table.suffixes(r for r in readable if r.drop))
+
+
+def _put_first(cls, **props) -> None:
+    """Properties ahead of the class's own, where they stood when they were written in it
+    (the order the operator's panel draws them in)."""
+    cls.__annotations__ = props | {k: v for k, v in cls.__annotations__.items() if k not in props}
 
 
 _CLASSES = (IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians, IO_FH_splatline_gaussians)
 
 
-register, unregister = classes_and_menus(
+_register, unregister = classes_and_menus(
     _CLASSES, (("TOPBAR_MT_file_import", _menu_import), ("TOPBAR_MT_file_export", _menu_export)))
+
+
+def register():
+    _from_table()
+    _register()

@@ -17,16 +17,26 @@ from .. import atomic
 from ..errors import SplatFormatError
 from ..select import select
 from ..reframe import reframe
-from ..splats import AXES, AXES_RDF, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
+from ..splats import AXES, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
 from ..validate import BadValues, check_values
+from . import table
 from ._common import file_size
 
-READ_FORMATS = ("ply", "compressed_ply", "splat", "spz", "sog", "glb", "gltf")
-WRITE_FORMATS = ("ply", "compressed_ply", "splat", "spz", "sog", "glb", "gltf")
-WRITE_MAX_DEGREE = {f: 3 for f in WRITE_FORMATS} | {"splat": 0}  # .splat stores no higher SH bands
-# the convention each writable format holds (spz and sog: RDF, as splat-transform writes them)
-WRITE_AXES = {f: AXES_RDF for f in WRITE_FORMATS}
-EXTENSIONS = {".ply": "ply", ".splat": "splat", ".spz": "spz", ".sog": "sog", ".glb": "glb", ".gltf": "gltf"}
+# The lists other modules import, derived from the format table on each use (so a row a
+# test registers shows in them too).
+_DERIVED = {
+    "READ_FORMATS": lambda: tuple(r.name for r in table.rows()),
+    "WRITE_FORMATS": lambda: tuple(r.name for r in table.rows(writable=True)),
+    "WRITE_MAX_DEGREE": lambda: {r.name: r.max_sh_degree for r in table.rows(writable=True)},
+    "WRITE_AXES": lambda: {r.name: r.axes for r in table.rows(writable=True)},
+    "EXTENSIONS": lambda: {e: r.name for e in table.suffixes(table.rows()) for r in [table.by_name(f"x{e}")]},
+}
+
+
+def __getattr__(name):
+    if name in _DERIVED:
+        return _DERIVED[name]()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass
@@ -49,47 +59,24 @@ class ReadReport:
 
 
 def detect_format(path) -> str:
-    """Format name from the file's magic bytes, falling back to its extension."""
+    """Format name from the file's magic bytes, falling back to its name (table.by_name)."""
     file_size(path)
     with open(path, "rb") as f:
         head = f.read(4096)
-    if head.startswith(b"ply"):
-        end = head.find(b"end_header")
-        return "compressed_ply" if b"element chunk " in head[: end if end >= 0 else None] else "ply"
-    if head[:2] == b"\x1f\x8b" or head[:4] == b"NGSP":
-        return "spz"
-    if head[:4] == b"glTF":
-        return "glb"
-    if head[:4] == b"PK\x03\x04" or os.path.basename(os.fspath(path)).lower() == "meta.json":
-        return "sog"  # the zip or meta.json itself is checked by the reader
+    fmt = table.by_magic(head) or table.by_name(path)
     ext = os.path.splitext(os.fspath(path))[1].lower()
-    if ext in (".ply", ".spz"):
+    if fmt is not None and fmt.magic_required and not fmt.matches(head):
         raise SplatFormatError(path, f"does not start like a {ext} file (bad magic bytes)")
-    if ext in EXTENSIONS:
-        return EXTENSIONS[ext]
-    raise SplatFormatError(path, f"unknown splat format (extension {ext or 'none'!r}, no known magic)")
+    if fmt is None:
+        raise SplatFormatError(path, f"unknown splat format (extension {ext or 'none'!r}, no known magic)")
+    return fmt.name  # a zip, a meta.json or a glTF is checked further by its reader
 
 
 def _reader(fmt: str):
-    if fmt == "ply":
-        from .ply import read_ply
-        return read_ply
-    if fmt == "compressed_ply":
-        from .compressed_ply import read_compressed_ply
-        return read_compressed_ply
-    if fmt == "splat":
-        from .splat import read_splat
-        return read_splat
-    if fmt == "spz":
-        from .spz import read_spz
-        return read_spz
-    if fmt == "sog":
-        from .sog import read_sog
-        return read_sog
-    if fmt in ("glb", "gltf"):
-        from .gltf import read_gltf
-        return read_gltf
-    raise SplatFormatError(None, f"unknown read format {fmt!r}; known: {', '.join(READ_FORMATS)}")
+    row = table.row(fmt)
+    if row is None:
+        raise SplatFormatError(None, f"unknown read format {fmt!r}; known: {', '.join(_DERIVED['READ_FORMATS']())}")
+    return row.read
 
 
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
@@ -104,7 +91,7 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
     try:  # open/read can still fail after the stat checks (permission denied, I/O error)
         fmt = format or detect_format(path)
-        splats = _reader(fmt)(path, max_degree=max_degree, max_splats=max_splats)
+        splats = _reader(fmt)(path, max_degree, max_splats)
     except OSError as exc:
         raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
@@ -122,16 +109,12 @@ def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", form
 
 
 def format_for_output(path) -> str:
-    ext = os.path.splitext(os.fspath(path))[1].lower()
-    fmt = EXTENSIONS.get(ext)
-    if os.fspath(path).lower().endswith(".compressed.ply"):  # the name promises packed data
-        return "compressed_ply"
-    if os.path.basename(os.fspath(path)).lower() == "meta.json":  # unbundled SOG
-        return "sog"
-    if fmt not in WRITE_FORMATS:
+    fmt = table.by_name(path)
+    if fmt is None or fmt.writer is None:
+        ext = os.path.splitext(os.fspath(path))[1].lower()
         raise SplatFormatError(path, f"cannot write {ext or 'extension-less'} files; "
-                                     f"writable: {', '.join(WRITE_FORMATS)}")
-    return fmt
+                                     f"writable: {', '.join(_DERIVED['WRITE_FORMATS']())}")
+    return fmt.name
 
 
 def write(path, splats: SplatSet, format=None, **options) -> None:
@@ -139,8 +122,9 @@ def write(path, splats: SplatSet, format=None, **options) -> None:
     as RUB, a procedural RFU set) is re-expressed first, so the file means the same thing.
     `options` go to the writer: spz `version` (4 or 3); sog `iterations`, `seed`."""
     fmt = format or format_for_output(path)
-    if fmt in WRITE_AXES:
-        splats = reframe(splats, WRITE_AXES[fmt])
+    row = table.row(fmt)
+    if row is not None and row.writer is not None:
+        splats = reframe(splats, row.axes)
     if os.path.isdir(path):
         raise SplatFormatError(path, "is a directory")
     _refuse_negative_scales(path, splats)
@@ -168,26 +152,10 @@ def _claim_or_refuse(path, lock_path):
 
 
 def _write(path, splats: SplatSet, fmt: str, options: dict) -> None:
-    if fmt == "ply":
-        from .ply import write_ply
-        write_ply(path, splats)
-    elif fmt == "splat":
-        from .splat import write_splat
-        write_splat(path, splats)
-    elif fmt == "compressed_ply":
-        from .compressed_ply_write import write_compressed_ply
-        write_compressed_ply(path, splats)
-    elif fmt == "spz":
-        from .spz_write import write_spz
-        write_spz(path, splats, **options)
-    elif fmt == "sog":  # bundled .sog, or meta.json beside its images
-        from .sog_write import write_sog
-        write_sog(path, splats, **options)
-    elif fmt in ("glb", "gltf"):  # RDF here; the writer turns it into glTF's own frame
-        from .gltf_write import write_gltf
-        write_gltf(path, splats, binary_container=fmt == "glb")
-    else:
-        raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(WRITE_FORMATS)}")
+    row = table.row(fmt)
+    if row is None or row.writer is None:
+        raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(_DERIVED['WRITE_FORMATS']())}")
+    row.write(path, splats, options)
 
 
 def _refuse_negative_scales(path, splats: SplatSet) -> None:

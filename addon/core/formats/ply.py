@@ -5,9 +5,11 @@ unknown extra properties are ignored. f_rest is channel-major in the file
 (f_rest_k, f_rest_{k+K}, f_rest_{k+2K} are r, g, b of coefficient k) and becomes
 SplatSet.sh_rest (N, K, 3). Axis convention: RDF (COLMAP camera frame).
 
-Speed: the binary body is read with one np.fromfile into a structured array, and
-each attribute group is copied out through a strided view (one copy per group,
+Speed: the binary body is memory-mapped as a structured array (plyheader.read_body),
+and each attribute group is copied out through a strided view (one copy per group,
 in float32), so a 1M-splat degree-3 file costs a few hundred milliseconds.
+Not plyfile: its reading is the same memory map, but its header parser has no size
+bound (docs/DESIGN.md, "PLY without plyfile"; bench/plyfile_bench.py).
 """
 from __future__ import annotations
 

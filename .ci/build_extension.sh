@@ -22,6 +22,12 @@ for w in "${wheels[@]}"; do
   [ -f "$tmp/$w" ] || { echo "error: pip did not produce $w" >&2; rm -rf "$tmp"; exit 1; }
   mv -f "$tmp/$w" "wheels/$w" && rm -rf "$tmp"
 done
+# The builder packs every file in wheels/: a wheel the manifest no longer names (plyfile, dropped
+# from the zip) must not ride along from an older cache.
+for f in wheels/*.whl; do
+  [ -e "$f" ] || continue
+  [[ " ${wheels[*]} " == *" ${f#wheels/} "* ]] || rm -f "$f"
+done
 # bpy may log to stdout before the path (e.g. when OCIO is set): keep the last line
 ext=$("$py" -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core/bl_pkg/cli/blender_ext.py"))' | tail -n 1)
 rm -f "$out"/splatline-*.zip  # zips of an older version or platform list would linger

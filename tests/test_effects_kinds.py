@@ -12,6 +12,7 @@ import pytest
 from addon.core.effects import EffectParams, KINDS, registry
 from addon.core.effects.kind import EffectKind, Field
 from capture_scenes import item_at, own_item, place
+from test_effects_capture import _add  # an effect through the real operator
 from testing.viewport_scene import camera_for, draw_offscreen, overlay_drawn, psnr
 
 ARRAYS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
@@ -56,16 +57,6 @@ def with_bob(bpy_empty):
     finally:
         registry.remove(BOB.id)
         _reregister(bpy_empty)
-
-
-def _add(bpy, obj, kind, **props):
-    bpy.context.view_layer.objects.active = obj
-    with bpy.context.temp_override(object=obj):
-        assert bpy.ops.splatline.effect_add(type=kind) == {"FINISHED"}
-    effect = obj.splatline.effects[-1]
-    for name, value in props.items():
-        setattr(effect, name, value)
-    return effect
 
 
 def _expected(rest, effect, frame, fps=24.0):

@@ -108,6 +108,24 @@ def core_table(n: int, runs: int) -> None:
           f"-> {verdict} (CPU time; wall includes waiting for a shared core)")
 
 
+# The stack of three the Blender rows (here and bench.handoff_bench) measure.
+STACK = (("REVEAL", {"edge_width": 0.3, "glow_strength": 1.0}),
+         ("DISPLACE", {"amplitude": 0.1, "frequency": 2.0}),
+         ("GRADE", {"range_low": -2.0, "range_high": 2.0}))
+
+
+def add_effects(obj, stack) -> list:
+    """Effects on a splat object, as [(type, {property: value})] says; returns them."""
+    effects = []
+    for kind, values in stack:
+        effect = obj.splatline.effects.add()
+        effect.type = kind
+        for key, value in values.items():
+            setattr(effect, key, value)
+        effects.append(effect)
+    return effects
+
+
 def bpy_table(n: int, runs: int) -> None:
     """The same stack through Blender: collect_items on a 1M-splat PointCloud object."""
     try:
@@ -133,14 +151,8 @@ def bpy_table(n: int, runs: int) -> None:
     collect(1)
     first = (time.perf_counter() - t) * 1e3
     plain = measure(lambda i: collect(2 + i), runs)
-    for kind, values in (("REVEAL", {"edge_width": 0.3, "glow_strength": 1.0}),
-                         ("DISPLACE", {"amplitude": 0.1, "frequency": 2.0}),
-                         ("GRADE", {"range_low": -2.0, "range_high": 2.0})):
-        effect = obj.splatline.effects.add()
-        effect.type = kind
-        for key, value in values.items():
-            setattr(effect, key, value)
-    effect.keyframe_insert("amount", frame=1)
+    effects = add_effects(obj, STACK)
+    effects[-1].keyframe_insert("amount", frame=1)
     obj.update_tag()
     collect(1)
     stacked = measure(lambda i: collect(20 + i), runs)

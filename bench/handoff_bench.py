@@ -17,12 +17,7 @@ import argparse
 import time
 
 from bench.common import wall_and_cpu
-from bench.effects_bench import make_splats
-
-STACK = (("REVEAL", {"edge_width": 0.3, "glow_strength": 1.0}),
-         ("DISPLACE", {"amplitude": 0.1, "frequency": 2.0}),
-         ("GRADE", {"range_low": -2.0, "range_high": 2.0}))
-
+from bench.effects_bench import STACK, add_effects, make_splats
 
 def _scene(bpy, n):
     from addon import register
@@ -32,11 +27,7 @@ def _scene(bpy, n):
     if not hasattr(bpy.types.Object, "splatline"):
         register()
     obj = new_pointcloud_object("bench", make_splats(n, 3, 1))
-    for kind, values in STACK:
-        effect = obj.splatline.effects.add()
-        effect.type = kind
-        for key, value in values.items():
-            setattr(effect, key, value)
+    for effect in add_effects(obj, STACK):
         effect.keyframe_insert("amount", frame=1)
     obj.update_tag()
     return obj

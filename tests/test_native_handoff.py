@@ -118,12 +118,17 @@ def test_blender_renders_the_evaluated_splats_animation(native_bpy, testdata, tm
         # and a lower SH cap from frame 5 on: fewer sh attributes handed off
         _key(obj.splatline.look, "max_sh_degree", ((4, 3), (5, 1)))
     record = recorder(obj)
+    _render_animation(bpy, 3, 6, tmp_path / "anim_")
+    _assert_blender_sees_items(record.seen, range(3, 7))
+
+
+def _render_animation(bpy, start, end, path):
+    """Blender's own animation render of frames start-end (Workbench, tiny) from a camera."""
     scene = bpy.context.scene
     add_camera(bpy)
-    scene.frame_start, scene.frame_end = 3, 6
-    _tiny_workbench(scene, tmp_path / "anim_")
+    scene.frame_start, scene.frame_end = start, end
+    _tiny_workbench(scene, path)
     bpy.ops.render.render(animation=True)
-    _assert_blender_sees_items(record.seen, range(3, 7))
 
 
 def add_camera(bpy):
@@ -197,11 +202,7 @@ def test_blender_renders_a_sequence_and_a_hidden_morph_target(native_bpy, tmp_pa
     assert bpy.ops.import_scene.splatline_sequence(directory=str(tmp_path / "seq")) == {"FINISHED"}
     obj = bpy.context.view_layer.objects.active
     record = recorder(obj)
-    scene = bpy.context.scene
-    add_camera(bpy)
-    scene.frame_start, scene.frame_end = 1, 3
-    _tiny_workbench(scene, tmp_path / "seq_")
-    bpy.ops.render.render(animation=True)
+    _render_animation(bpy, 1, 3, tmp_path / "seq_")
     _assert_blender_sees_items(record.seen, (1, 2, 3))
     from addon.blender.data.pointcloud import new_pointcloud_object
     from testing.viewport_scene import blob

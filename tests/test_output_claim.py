@@ -84,18 +84,24 @@ def _one_error_line(stderr: str) -> str:
     return errors[0]
 
 
-def test_a_second_render_into_the_same_folder_stops_with_one_line(tmp_path, testdata):
-    out = tmp_path / "out"
-    first, go = _render_child(tmp_path, testdata, out)
+def _while_held(first, go, *args):
+    """A second CLI run while `first` holds its claim, then `first` let go (the go file).
+    Returns the second's CompletedProcess and the first's (exit code, stdout, stderr)."""
     try:
-        second = subprocess.run([sys.executable, "-m", "addon", "render", str(testdata / "guitar.splat"),
-                                 "--out", str(out), "--frames", "1-3", "--resolution", "48x32",
-                                 "--format", "PNG"], cwd=ROOT, capture_output=True, text=True,
-                                timeout=180)
+        second = subprocess.run([sys.executable, "-m", "addon", *map(str, args)], cwd=ROOT,
+                                capture_output=True, text=True, timeout=180)
     finally:
         go.touch()
     rc_first = first.wait(180)
-    stdout, stderr = first.communicate()
+    return second, (rc_first, *first.communicate())
+
+
+def test_a_second_render_into_the_same_folder_stops_with_one_line(tmp_path, testdata):
+    out = tmp_path / "out"
+    first, go = _render_child(tmp_path, testdata, out)
+    second, (rc_first, stdout, stderr) = _while_held(
+        first, go, "render", testdata / "guitar.splat", "--out", out, "--frames", "1-3",
+        "--resolution", "48x32", "--format", "PNG")
     assert second.returncode == 1, second.stdout + second.stderr
     line = _one_error_line(second.stderr)
     assert str(out) in line and "another Splatline run" in line and f"process {first.pid}" in line
@@ -112,14 +118,8 @@ def test_a_second_convert_to_the_same_output_stops_with_one_line(tmp_path, testd
     first = _start(CONVERT_CHILD.format(root=ROOT, marker=str(marker), go=str(go),
                                         source=str(testdata / "guitar.splat"), out=str(out / "g.ply")))
     _wait(first, marker)
-    try:
-        second = subprocess.run([sys.executable, "-m", "addon", "convert", str(testdata / "guitar.spz"),
-                                 str(out / "g.ply")], cwd=ROOT, capture_output=True, text=True,
-                                timeout=180)
-    finally:
-        go.touch()
-    rc_first = first.wait(180)
-    stdout, stderr = first.communicate()
+    second, (rc_first, stdout, stderr) = _while_held(first, go, "convert", testdata / "guitar.spz",
+                                                     out / "g.ply")
     assert second.returncode == 1, second.stdout + second.stderr
     line = _one_error_line(second.stderr)
     assert str(out / "g.ply") in line and "another Splatline run" in line

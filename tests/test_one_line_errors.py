@@ -205,7 +205,7 @@ def test_rejected_option_leaves_no_out_folder(testdata, tmp_path):
     out = tmp_path / "out"
     rc, _, err, _ = cli("render", testdata / "test64.ply", "--out", out, "--frames", "1",
                         "--engine-option", "bogus=1")
-    assert rc == 1
+    assert rc == 2  # a usage error
     one_line(err, "--engine-option")
     assert not out.exists()
 

@@ -23,7 +23,7 @@ import sys
 
 import numpy as np
 
-from addon.core.project import extent_sigmas, project
+from addon.core.preprocess import extent_sigmas, project
 from bench.common import cell_blocks
 from bench.final_frame_bench import COUNT, SIZE
 from bench.playbot_scene import scene

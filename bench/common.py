@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from addon.core.equirect import seam_shifts
-from addon.core.project import project
+from addon.core.preprocess import project
 
 
 def psnr(a, b) -> float:

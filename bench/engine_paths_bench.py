@@ -29,7 +29,7 @@ def main() -> None:
     from testing.viewport_scene import psnr
 
     from addon import register
-    from addon.blender.render import paths as render_paths
+    from addon.blender.render import backend as render_backend
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if not hasattr(bpy.types.Object, "splatline"):
@@ -44,7 +44,7 @@ def main() -> None:
             runs = [render_exr(bpy, scene, path, kind, depth=False) for _ in range(RUNS)]
             rgba = runs[-1][0]
             ms = 1000 * statistics.median(r[2] for r in runs)
-            print(f"{render_paths.last_label():<64} {psnr(to_display(rgba), ref.rgba):8.1f} {ms:9.1f}")
+            print(f"{render_backend.last_label():<64} {psnr(to_display(rgba), ref.rgba):8.1f} {ms:9.1f}")
 
 
 if __name__ == "__main__":

@@ -50,7 +50,7 @@ def main(argv=None) -> None:
     from addon.blender.data import evaluated_geometry as geometry
     from addon.blender.data import native
     from addon.blender.evaluate.items import collect_items
-    from addon.core.bake import baked_splats
+    from addon.core.fold_look import baked_splats
 
     if not native.has_native_splats():
         print(f"(Blender {bpy.app.version_string} has no native splats: nothing is handed off)")

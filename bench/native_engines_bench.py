@@ -155,7 +155,7 @@ def linear_light(items, camera):
     in linear light, as Blender's engines do, with 3DGS's footprints, alphas and order: its
     premultiplied output is linear, to be put through display() like an engine's film."""
     from addon.core.colorspace import srgb_to_linear
-    from addon.core.project import project
+    from addon.core.preprocess import project
     from addon.core.scene import IDENTITY_COLOR
     from addon.core.sh import C0
 

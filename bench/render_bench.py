@@ -85,7 +85,7 @@ def gl_rows(has_sh: bool, extra: bool):
         rows += [("gl, default + depth pass", d, None, "depth"),
                  ("gl, GL 3.3 fallback (CPU preprocess+sort)", d, None, "fallback")]
     # the defaults sort with numpy on a software GL and with compute shaders on a GPU
-    # (gl/sorting.sorts_on_gpu): one row for each, forced
+    # (gl/sort.sorts_on_gpu): one row for each, forced
     rows += [("gl, GPU sort", RenderOptions(gpu_sort=True), None, "colour"),
              ("gl, CPU sort", RenderOptions(gpu_sort=False), None, "colour"),
              ("gl, 16-bit keys", RenderOptions(key_bits=16), None, "colour"),

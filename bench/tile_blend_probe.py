@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from addon.core.project import extent_sigmas
+from addon.core.preprocess import extent_sigmas
 from addon.core.scene import RenderOptions
 from addon.gl import OffscreenRenderer, shaders
 from bench.common import cell_blocks, psnr

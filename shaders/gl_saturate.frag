@@ -4,7 +4,7 @@
 // Drawn into a depth-only framebuffer over the full tile; kept fragments write depth 0.5.
 uniform sampler2D u_colour;  // the tile's colour target: alpha = 1 - T
 
-const float SL_T_STOP = 1.0e-4;  // twin of core/reference.py T_STOP
+const float SL_T_STOP = 1.0e-4;  // twin of core/render_constants.py T_STOP
 
 void main()
 {

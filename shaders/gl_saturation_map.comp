@@ -23,7 +23,7 @@ uniform uint u_offset;       // this level's first word
 uniform uint u_below;        // level k - 1's first word
 uniform ivec2 u_tile_size;
 
-const float SL_T_STOP = 1.0e-4;  // twin of core/reference.py T_STOP
+const float SL_T_STOP = 1.0e-4;  // twin of core/render_constants.py T_STOP
 
 #ifdef SL_HOLDOUT
 // Holdout (issue 25; the cells pass only): a cell is closed too where its surface lies at

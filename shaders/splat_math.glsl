@@ -23,6 +23,7 @@ const float SL_SH_C3_4 = -0.4570457994644658;
 const float SL_SH_C3_5 = 1.445305721320277;
 const float SL_SH_C3_6 = -0.5900435899266435;
 
+// The next three are twins of core/render_constants.py (LOW_PASS, ALPHA_MIN, MAX_ALPHA).
 const float SL_LOWPASS = 0.3;            // px^2 added to the 2D covariance diagonal
 const float SL_ALPHA_MIN = 1.0 / 255.0;  // fragments below this are dropped
 const float SL_ALPHA_MAX = 0.99;
@@ -36,7 +37,7 @@ bool sl_is_finite3(vec3 v) { return sl_is_finite(v.x) && sl_is_finite(v.y) && sl
 bool sl_is_finite4(vec4 v) { return sl_is_finite3(v.xyz) && sl_is_finite(v.w); }
 
 // A quaternion the renderers accept: finite and not zero (others are culled, as in
-// core/project.py).
+// core/preprocess.py).
 bool sl_quat_ok(vec4 q)
 {
     return sl_is_finite4(q) && max(max(abs(q.x), abs(q.y)), max(abs(q.z), abs(q.w))) > 0.0;
@@ -78,7 +79,7 @@ vec2 sl_project_point(vec3 t, vec4 focal_centre, bool ortho)
 
 // Jacobian d(u, v)/d(x, y, z) at camera-space point t (mat3x2: 3 columns, 2 rows).
 // Perspective: t.xy / -z is clamped to bounds (xmin, ymin, xmax, ymax: the frame plus a
-// 15% margin, core/project.j_clamp_bounds, passed in as a uniform) here only, never
+// 15% margin, core/preprocess.j_clamp_bounds, passed in as a uniform) here only, never
 // for the centre itself.
 mat3x2 sl_jacobian(vec3 t, vec2 focal, vec4 bounds, bool ortho)
 {
@@ -171,7 +172,7 @@ bool sl_conic(vec4 cov, bool antialiased, inout float opacity, out vec3 conic, o
 // Quad half-extent in standard deviations: sqrt(2 ln(255 o)), the radius where
 // o * exp(-r^2/2) falls to 1/255, so the quad holds the exact footprint (3.33 at o = 1).
 // capped (a speed setting): no more than 3, dropping the ring of alpha < 0.011 beyond.
-// Twin of core/project.py extent_sigmas.
+// Twin of core/preprocess.py extent_sigmas.
 float sl_extent_sigma(float opacity, bool capped)
 {
     float cut = sqrt(2.0 * log(max(255.0 * opacity, 1.0)));

@@ -7,7 +7,7 @@ import pytest
 
 from addon.core import reference
 from addon.core.camera import look_at, simple_camera
-from addon.core.project import project
+from addon.core.preprocess import project
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sh import C0
 from addon.core.splats import SplatSet

@@ -9,7 +9,7 @@ from addon.core import reference
 from addon.core.axes import matrix_for
 from addon.core.camera import look_at, simple_camera
 from testing import synth
-from addon.core.project import project
+from addon.core.preprocess import project
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 

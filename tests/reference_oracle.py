@@ -1,5 +1,5 @@
 """An independent oracle for the reference renderer, written the plain way from
-DESIGN.md (not from project.py): per splat, Sigma' = J W R S S R^T W^T J^T and
+DESIGN.md (not from preprocess.py): per splat, Sigma' = J W R S S R^T W^T J^T and
 det = ac - b^2 in exact rational arithmetic (fractions) from the float64
 inputs; pixels in long double; back-to-front "over" compositing. Slow: for a
 few thousand splats on small frames.

@@ -126,7 +126,7 @@ def test_bake_folds_the_look_and_renders_the_same(bpy_empty, tmp_path):
     the data: the re-imported sequence, with no look of its own, renders like the source."""
     from addon.blender.data.sequences import import_sequence
     from addon.core import reference
-    from addon.core.bake import baked_splats
+    from addon.core.fold_look import baked_splats
     from addon.core.camera import look_at, simple_camera
 
     bpy = bpy_empty

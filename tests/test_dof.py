@@ -88,7 +88,7 @@ def _untruncated(total, var, opacity):
 def test_out_of_focus_splat_widens_as_the_thin_lens_predicts(y):
     """Its spread, measured on the image, grows by coc^2 / 4 per axis (the variance of a
     uniform disk of radius coc), and its energy stays."""
-    from addon.core.project import project
+    from addon.core.preprocess import project
 
     item, lens = _one_splat(y, scale=0.05, opacity=0.9), dof.Defocus(1.0, FOCUS)
     sharp = reference.render([item], _camera()).rgba[..., 3]

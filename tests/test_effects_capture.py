@@ -24,7 +24,7 @@ import pytest
 
 from addon.blender.data.files import import_file
 from addon.core.effects.noise import field as noise_field
-from addon.core.project import quat_to_matrix
+from addon.core.preprocess import quat_to_matrix
 from addon.core.sh import C0, sh_to_rgb
 from capture_scenes import item_at, place
 

@@ -22,7 +22,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from addon.blender.render.engine import world_background
+from addon.blender.render.world import world_background
 from addon.blender.render.film import BACKGROUND_DEPTH
 from testing.engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
 from testing.viewport_scene import psnr
@@ -31,7 +31,7 @@ MIN_PSNR = 60.0
 
 
 def test_both_paths_match_the_reference(bpy_empty, testdata, tmp_path):
-    from addon.blender.render import paths as render_paths
+    from addon.blender.render import backend as render_backend
     from addon.blender.ui.render_panel import path_text
 
     bpy = bpy_empty
@@ -39,9 +39,9 @@ def test_both_paths_match_the_reference(bpy_empty, testdata, tmp_path):
     ref = reference_frame(bpy, scene)
     assert ref.rgba[..., 3].max() > 0.5
     gl, gl_depth, _ = render_exr(bpy, scene, tmp_path / "gl", "OFFSCREEN")
-    assert render_paths.last_label().startswith("Offscreen GL (moderngl")
+    assert render_backend.last_label().startswith("Offscreen GL (moderngl")
     gpu, gpu_depth, _ = render_exr(bpy, scene, tmp_path / "gpu", "GPU_MODULE")
-    assert render_paths.last_label().startswith("Blender GPU module (")
+    assert render_backend.last_label().startswith("Blender GPU module (")
     assert "Blender GPU module" in path_text("GPU_MODULE")
     # Same orientation and colour space: both are held to the reference, not to each other.
     assert psnr(to_display(gl), ref.rgba) >= MIN_PSNR
@@ -53,17 +53,17 @@ def test_both_paths_match_the_reference(bpy_empty, testdata, tmp_path):
 
 def test_auto_falls_back_when_no_gl_context(bpy_empty, testdata, tmp_path, monkeypatch, caplog):
     """An unknown glcontext backend fails as a missing driver does: the frame still renders."""
-    from addon.blender.render import paths as render_paths
+    from addon.blender.render import backend as render_backend
 
     bpy = bpy_empty
     monkeypatch.setenv("SPLATLINE_GL_BACKEND", "no-such-backend")
-    monkeypatch.setattr(render_paths, "_logged", set())
+    monkeypatch.setattr(render_backend, "_logged", set())
     scene = two_object_scene(bpy, testdata, 96, 72)
     ref = reference_frame(bpy, scene)
     with caplog.at_level("WARNING", logger="splatline"):
         first, _, _ = render_exr(bpy, scene, tmp_path / "a", "AUTO")
         second, _, _ = render_exr(bpy, scene, tmp_path / "b", "AUTO")
-    label = render_paths.last_label()
+    label = render_backend.last_label()
     assert label.startswith("Blender GPU module") and "fallback: no OpenGL context" in label
     assert "no-such-backend" in label
     assert psnr(to_display(first), ref.rgba) >= MIN_PSNR
@@ -100,11 +100,11 @@ def test_auto_falls_back_when_moderngl_is_not_installed(testdata, tmp_path):
         register()
         from testing.engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
         from testing.viewport_scene import psnr
-        from addon.blender.render import paths as render_paths
+        from addon.blender.render import backend as render_backend
         scene = two_object_scene(bpy, pathlib.Path({str(testdata)!r}), 96, 72)
         rgba, _, _ = render_exr(bpy, scene, pathlib.Path({str(tmp_path / "auto")!r}), "AUTO")
         assert "moderngl" not in sys.modules
-        print("LABEL", render_paths.last_label())
+        print("LABEL", render_backend.last_label())
         print("PSNR", psnr(to_display(rgba), reference_frame(bpy, scene).rgba))
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,

@@ -12,7 +12,7 @@ import pytest
 
 from addon.core import equirect, reference
 from addon.core.camera import equirect_camera, look_at, simple_camera
-from addon.core.project import project
+from addon.core.preprocess import project
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer

@@ -1,7 +1,7 @@
 """The footprint, pinned analytically: a single opaque splat lights exactly the pixel
 centres inside its alpha = 1/255 contour, m2 = d^T conic d <= 2 ln(255 o) (3.33 sigma
 at o = 1), and none beyond it, in the reference and in every fast path. The conic comes
-from core/project.py (pinned on its own by test_reference*.py); what is tested here is
+from core/preprocess.py (pinned on its own by test_reference*.py); what is tested here is
 which pixels a splat reaches. With the capped speed setting, the contour is cut at the
 3-sigma square quad instead.
 
@@ -60,7 +60,7 @@ def test_capped_extent_stops_at_three_sigma(path, request):
     lit = _lit(path, request, items, cam, capped=True)
     sure = margin > NEAR_CONTOUR * 2.0 * np.log(255.0) if path != "reference" else np.ones_like(lit)
     if path != "reference":  # float32 may also flip a centre on the quad's edge
-        from addon.core.project import project
+        from addon.core.preprocess import project
 
         p = project(items[0], cam)
         ys, xs = np.mgrid[0:cam.height, 0:cam.width] + 0.5

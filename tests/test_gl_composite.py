@@ -304,13 +304,3 @@ def test_saturation_culling_keeps_tips_that_reach_unsaturated_pixels(renderer):
     assert np.abs(full.rgba[band] - without.rgba[band]).max() > 1e-3  # tips: 10x the ET bound
     assert_early_termination_bound(out, full, trimmed=True)
 
-
-def test_glsl_early_termination_threshold_is_the_references():
-    """The shaders' SL_T_STOP twins core/reference.py's T_STOP."""
-    import re
-
-    from addon.gl import shaders
-
-    for name in ("gl_saturate.frag", "gl_saturation_map.comp"):
-        found = re.findall(r"const float SL_T_STOP = ([0-9.e+-]+);", shaders.read(name))
-        assert [float(v) for v in found] == [reference.T_STOP], name

@@ -1,5 +1,5 @@
 """The offscreen renderer's GL 3.3 fallback (no compute shaders: CPU preprocess with
-core/project.py and CPU sort, GPU draw), forced with compute=False on the same context.
+core/preprocess.py and CPU sort, GPU draw), forced with compute=False on the same context.
 Same PSNR bar as test_gl_render.py (its docstring explains it)."""
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
-"""The offscreen renderer's preprocess stage, record by record, against core/project.py.
+"""The offscreen renderer's preprocess stage, record by record, against core/preprocess.py.
 
 As gsplat pins each CUDA stage to its torch reference: the real compute shader
 (shaders/gl_preprocess.comp) runs on the renderer's own moderngl context, its records are
-read back (FrameState.preprocess_records) and every field is compared with core.project's
+read back (FrameState.preprocess_records) and every field is compared with core.preprocess's
 float64 value: centre (rec0.xy), conic (rec0.zw, rec1.x), quad radius (rec1.y), view depth
 (rec1.z), opacity (rec1.w), colour (rec2.rgb), the sort depth, and which splats are culled.
 Scenes: the real captures with their real transform (guitar and test64 read from the .ply,
@@ -38,7 +38,8 @@ import pytest
 
 from addon.core.camera import Camera, look_at, simple_camera
 from addon.core.formats import read
-from addon.core.project import LOW_PASS, ALPHA_MIN, j_clamp_bounds, project
+from addon.core.preprocess import j_clamp_bounds, project
+from addon.core.render_constants import ALPHA_MIN, LOW_PASS
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sh import C0 as SH_C0, sh_basis
 from addon.core.sort import back_to_front
@@ -264,7 +265,7 @@ def test_sh_lipschitz_constant_holds():
 
 @pytest.mark.parametrize("option", list(OPTIONS))
 @pytest.mark.parametrize("capture", ["guitar.ply", "test64.ply"])
-def test_capture_records_match_core_project(renderer, testdata, capture, option):
+def test_capture_records_match_core_preprocess(renderer, testdata, capture, option):
     items = capture_items(testdata, capture)
     camera = framing_camera(items[0], 320, 240)
     rec = gpu_records(renderer, items, camera, OPTIONS[option])
@@ -273,7 +274,7 @@ def test_capture_records_match_core_project(renderer, testdata, capture, option)
 
 
 @pytest.mark.parametrize("option", list(OPTIONS))
-def test_edge_case_records_match_core_project(renderer, option):
+def test_edge_case_records_match_core_preprocess(renderer, option):
     items, camera = edge_scene()
     rec = gpu_records(renderer, items, camera, OPTIONS[option])
     worst = compare(items, camera, OPTIONS[option], rec)
@@ -289,8 +290,8 @@ def test_edge_case_records_match_core_project(renderer, option):
     assert worst.get("cut axes", 0) >= 1, "the scene must hold a splat whose axes the shader cuts"
 
 
-def test_fallback_records_are_core_project_in_back_to_front_order(testdata):
-    """The GL 3.3 path's records (gl/fallback.cpu_records): core.project's values, rounded
+def test_fallback_records_are_core_preprocess_in_back_to_front_order(testdata):
+    """The GL 3.3 path's records (gl/fallback.cpu_records): core.preprocess's values, rounded
     to float32 once, for exactly the splats whose quad meets the frame, back to front."""
     items = capture_items(testdata, "test64.ply") + edge_scene()[0]
     camera = framing_camera(items[0], 320, 240)

@@ -23,7 +23,7 @@ from addon.core.formats import read
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sort import back_to_front, depth_keys
 from addon.gl import OffscreenRenderer
-from addon.gl.sorting import sorts_on_gpu
+from addon.gl.sort import sorts_on_gpu
 from gl_scenes import assert_depth_matches, framing_camera, psnr, random_splats, two_objects, world_for
 
 MIN_PSNR = 60.0

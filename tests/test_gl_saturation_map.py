@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from addon.core.reference import T_STOP
+from addon.core.render_constants import T_STOP
 from addon.gl import OffscreenRenderer
 
 

@@ -48,7 +48,7 @@ class Recorder:
 
         from addon.blender.data.pointcloud import splats_from_pointcloud
         from addon.blender.evaluate.items import collect_items
-        from addon.core.bake import baked_splats
+        from addon.core.fold_look import baked_splats
 
         obj = bpy.data.objects[self.name]
         got = splats_from_pointcloud(obj.evaluated_get(depsgraph).data)
@@ -221,7 +221,7 @@ def test_a_duplicate_gets_its_own_companion(native_bpy, testdata):
     from addon.blender.data import evaluated_geometry as geometry
     from addon.blender.data.pointcloud import splats_from_pointcloud
     from addon.blender.evaluate.items import collect_items
-    from addon.core.bake import baked_splats
+    from addon.core.fold_look import baked_splats
 
     bpy = native_bpy
     bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply"))

@@ -1,7 +1,7 @@
 """Analytic checks of the float64 reference renderer (core/reference.py).
 
 Every expected value is computed here by hand from DESIGN.md's formulas, not by
-calling project.py. Output is float32, so values in [0, 1] are compared to
+calling preprocess.py. Output is float32, so values in [0, 1] are compared to
 within TOL = 1e-6 (float32 spacing near 1 is 6e-8; the float64 maths is far
 more accurate than that).
 """

@@ -1,4 +1,4 @@
-"""core/sequence.py and core/bake.py: no bpy."""
+"""core/sequence.py and core/fold_look.py: no bpy."""
 from __future__ import annotations
 
 import threading
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.core import sequence as seq
-from addon.core.bake import baked_splats, fold_color_matrix
+from addon.core.fold_look import baked_splats, fold_color_matrix
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read, write
 from testing.synth import random_splats

@@ -65,7 +65,7 @@ def test_cpu_sorts_put_the_lower_index_in_front(bits):
 
 
 def test_viewport_sort_puts_the_lower_global_index_in_front():
-    from addon.core.view_order import SortInput, visible_order
+    from addon.core.viewport_sort import SortInput, visible_order
 
     pos = np.zeros((3000, 3), np.float32)
     l2c = np.eye(4)

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from addon.core import reference
-from addon.core.project import project
+from addon.core.preprocess import project
 from addon.core.scene import RenderOptions
 from testing.viewport_scene import camera_for, draw_offscreen, psnr, two_objects
 
@@ -48,7 +48,7 @@ def _viewport_order_is_exact(items, camera, bits) -> bool:
     reference order for every splat it keeps."""
     from addon.blender.viewport.packing import view_constants
     from addon.core.clip_space import projection_matrix
-    from addon.core.view_order import SortInput, visible_order
+    from addon.core.viewport_sort import SortInput, visible_order
 
     proj = projection_matrix(camera)
     _, _, near, far = view_constants(proj, camera.width, camera.height)["frame"]

@@ -2,14 +2,14 @@
 
 Drawn headless through the viewport's own path (viewport_scene.draw_offscreen: Blender's
 gpu module into an RGBA32F GPUOffScreen) on the real captures with their real transform
-(the RDF axes as a rotation on the object matrix), and predicted from core.project:
+(the RDF axes as a rotation on the object matrix), and predicted from core.preprocess:
 - OPAQUE: every splat an opaque ellipse out to its extent (d^T conic d <= extent^2), so a
   pixel is covered (alpha exactly 1) where some drawn splat's ellipse holds its centre,
   else empty (alpha 0), and shows the colour of the nearest such splat, unblended.
 - POINTS: every splat a square dot of half-size DrawSettings.point_size at its projected
   centre, opaque, in its own colour (the nearest dot wins).
 - SH only: the view-dependent bands over grey, the DC term removed: the colour is
-  0.5 + sum of the higher bands, which core.project gives for the same splats with DC = 0.
+  0.5 + sum of the higher bands, which core.preprocess gives for the same splats with DC = 0.
 The predictions start from the splats as the viewport stores them (half-float scales, DC,
 higher SH and smallest-three quaternion: viewport/packing.py), so the comparison stays at
 float32 precision and tests what each mode shows, not the storage's rounding.
@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from addon.core.formats import read
-from addon.core.project import project
+from addon.core.preprocess import project
 from addon.core.scene import RenderItem
 from gl_scenes import framing_camera, world_for
 from testing.viewport_scene import draw_offscreen
@@ -131,7 +131,7 @@ def test_opaque_shows_each_ellipse_solid_in_its_own_colour(gpu_ready, capture):
 
 @pytest.mark.parametrize("size", [2.0, 3.5])
 def test_points_are_dots_of_the_point_size_at_the_centres(gpu_ready, capture, size):
-    from addon.blender.viewport.renderer import DrawSettings
+    from addon.blender.viewport.viewport_renderer import DrawSettings
 
     item, camera = capture
     img, _ = draw_offscreen([item], camera, [_display(mode="POINTS")], DrawSettings(point_size=size))

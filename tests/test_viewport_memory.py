@@ -113,7 +113,7 @@ def test_smallest_three_quaternions_round_trip():
     dropped one, carried in the signs of two scales. Decoded as the shader does, each
     rotation matrix is within half-float rounding of the original."""
     from addon.blender.viewport.packing import HALF_TINY, halves, pack_shape
-    from addon.core.project import quat_to_matrix
+    from addon.core.preprocess import quat_to_matrix
 
     rng = np.random.default_rng(8)
     s = SplatSet.allocate(1000, 0)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.core.clip_space import projection_matrix
-from addon.core.view_order import SortInput, SortWorker, visible_order
+from addon.core.viewport_sort import SortInput, SortWorker, visible_order
 from addon.core.camera import look_at, simple_camera
 from addon.core.sort import back_to_front, depth_keys, far_to_near, radix_argsort
 
@@ -132,7 +132,7 @@ def test_culling_keeps_a_large_splat_whose_body_covers_the_view():
 def test_large_sets_cull_only_when_it_pays():
     """Above SMALL splats a sample decides: most off-screen -> culled, a few -> all kept
     (they would draw nothing anyway; culling them would cost more than drawing)."""
-    from addon.core import view_order as sorting
+    from addon.core import viewport_sort as sorting
 
     cam = _camera()
     rng = np.random.default_rng(4)

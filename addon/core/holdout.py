@@ -12,7 +12,7 @@ can be hidden at one pixel and shown at its neighbour. (KIRI's Blender add-on do
 same with a depth pass.) Dropped fragments leave the pixel's transmittance alone, so
 the splats in front and early termination behave as without the surface.
 
-Depth, the measure the splats are sorted by (project.py): camera-space depth (-z) for
+Depth, the measure the splats are sorted by (preprocess.py): camera-space depth (-z) for
 perspective and orthographic cameras, the distance from the camera centre for
 equirectangular ones. With depth of field the surface is seen through the pinhole
 (lens centre) ray, as the splats' centres are.

@@ -1,5 +1,5 @@
 """The float64 reference renderer: per pixel, exact, slow. The oracle for every
-other renderer (semantics in docs/DESIGN.md, projection in project.py).
+other renderer (semantics in docs/DESIGN.md, projection in preprocess.py).
 
 - Order: one global order over every item's splats by the view depth of the
   centre. Exact ties: the lower global index (item order, then splat order) is
@@ -10,7 +10,7 @@ other renderer (semantics in docs/DESIGN.md, projection in project.py).
   coordinates, i.e. our centres shifted by half a pixel.
 - A splat touches the pixels whose centres lie in its screen-aligned square
   quad, |u_pixel - u| <= radius and |v_pixel - v| <= radius (radius from
-  project.py, a float: what a quad rasterizer covers). There alpha =
+  preprocess.py, a float: what a quad rasterizer covers). There alpha =
   min(0.99, o exp(-d^T conic d / 2)) (0.99 is INRIA's cap), and alpha < 1/255
   is dropped. The quad reaches the 1/255 contour, so the footprint is exact:
   every pixel centre with alpha >= 1/255 and no other. options.capped_extent
@@ -41,13 +41,23 @@ import numpy as np
 from . import equirect
 from .camera import Camera
 from .holdout import holdout_depth, kept
-from .project import ALPHA_MIN, project
+from .preprocess import project
+from .render_constants import ALPHA_MIN, DEPTH_FROM_ALPHA, MAX_ALPHA, T_STOP
 from .scene import RenderItem, RenderOptions, RenderOutput
 
-MAX_ALPHA = 0.99
-T_STOP = 1e-4  # INRIA's early-termination threshold on transmittance
-DEPTH_FROM_ALPHA = 0.5  # a pixel has a depth where its splats' alpha reaches this
 TILE = 256
+
+
+class ReferenceRenderer:
+    """render() below as a core.renderer.Renderer (it keeps no state between frames)."""
+
+    has_depth = has_holdout = has_panorama = has_defocus = has_early_termination = True
+
+    def render(self, items, camera, options):
+        return render(items, camera, options)
+
+    def close(self):
+        pass
 
 
 def render(items: list[RenderItem], camera: Camera, options: RenderOptions = RenderOptions(),

@@ -51,7 +51,7 @@ class RenderOptions:
     capped_extent: bool = False        # quads at min(3, sqrt(2 ln(255 o))) sigma, not the 1/255 contour: faster
     key_bits: int = 32                 # 16 or 32-bit depth sort keys
     # Offscreen renderer on GL >= 4.3: sort with compute shaders (True) or numpy (False);
-    # None: compute shaders unless the GL is a software rasteriser (gl/sorting.sorts_on_gpu)
+    # None: compute shaders unless the GL is a software rasteriser (gl/sort.sorts_on_gpu)
     gpu_sort: bool | None = None
     background: tuple = (0.0, 0.0, 0.0, 0.0)  # premultiplied sRGB RGBA behind the splats
     # Opaque meshes that hide splats, per fragment (holdout.py): a splat's contribution to

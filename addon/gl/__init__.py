@@ -5,6 +5,6 @@ preprocess (compute shader, project + depth), sort (GPU radix or CPU numpy), dra
 (instanced quads, premultiplied back to front into RGBA32F), depth pass, readback.
 The splat math is shaders/splat_math.glsl, shared with the viewport.
 """
-from .renderer import OffscreenRenderer
+from .offscreen_renderer import OffscreenRenderer
 
 __all__ = ["OffscreenRenderer"]

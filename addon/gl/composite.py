@@ -49,7 +49,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..core.reference import DEPTH_FROM_ALPHA
+from ..core.render_constants import DEPTH_FROM_ALPHA
 from . import shaders
 from .uniforms import set_uniform
 

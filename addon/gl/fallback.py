@@ -1,7 +1,7 @@
 """GL 3.3 fallback (no compute shaders, e.g. macOS's OpenGL 4.1): preprocess and sort
 on the CPU, draw on the GPU.
 
-The projection is core/project.py's (float64, camera-relative), the order is
+The projection is core/preprocess.py's (float64, camera-relative), the order is
 core.sort.back_to_front with the same quantised keys, and the records go to the GPU in
 back-to-front order as RGBA32F textures (shaders/gl_records_texture.glsl) for the same
 draw and depth-pass shaders. Records depend on the camera, so they are sent every frame.
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.equirect import seam_shifts
-from ..core.project import project
+from ..core.preprocess import project
 from ..core.sort import back_to_front
 from .shaders import RECORD_WIDTH
 

@@ -13,7 +13,7 @@ from .composite import Compositor
 from .fallback import RecordTextures, cpu_records
 from .holdout import HoldoutPass, Surface, active
 from .software import gl_flush, is_software
-from .sorting import RadixSorter, cpu_order, sorts_on_gpu
+from .sort import RadixSorter, cpu_order, sorts_on_gpu
 from .uniforms import camera_uniforms, depth_origin, item_uniforms, set_uniform, slots_per_splat
 from .upload import UploadCache
 
@@ -233,7 +233,7 @@ class FrameState:
 
     def preprocess_records(self, items, camera, options) -> dict:
         """Run only the upload and preprocess stages and read their output back, for tests
-        that pin the compute shader to core/project.py: (N, 4) float32 rec0, rec1, rec2 and
+        that pin the compute shader to core/preprocess.py: (N, 4) float32 rec0, rec1, rec2 and
         the (N,) sort depth, in item order (an equirect camera's seam copies follow, one
         block of N per copy). Culled splats hold rec1 = 0, depth +inf (their rec0 and rec2
         are left as they were)."""

@@ -1,5 +1,5 @@
 """What changes when the GL rasterises on the CPU (Mesa's llvmpipe on a render farm, WARP,
-SwiftShader): which sort runs (gl/sorting.sorts_on_gpu) and how the splats' draws are
+SwiftShader): which sort runs (gl/sort.sorts_on_gpu) and how the splats' draws are
 submitted (gl/composite.Compositor.flush)."""
 from __future__ import annotations
 

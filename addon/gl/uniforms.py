@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core import equirect
 from ..core.camera import Camera
-from ..core.project import camera_in_object, j_clamp_bounds, split_float
+from ..core.preprocess import camera_in_object, j_clamp_bounds, split_float
 from ..core.scene import RenderItem
 
 

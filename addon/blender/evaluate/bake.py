@@ -1,7 +1,7 @@
 """Evaluated splats to files: export one frame, bake a frame range.
 
 export_evaluated  the object's evaluated splats at the depsgraph's frame -> .ply / .splat,
-                  with the look folded in (core/bake.py says exactly what is folded).
+                  with the look folded in (core/fold_look.py says exactly what is folded).
 bake_frames       a frame range -> numbered PLYs that data/sequences.import_sequence reads back.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ import os
 import bpy
 
 from ...core import formats
-from ...core.bake import baked_splats
+from ...core.fold_look import baked_splats
 from ...core.errors import SplatFormatError
 from ...core.reframe import reframe
 from ..data.files import WRITE_AXES, object_axes

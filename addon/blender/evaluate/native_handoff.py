@@ -2,7 +2,7 @@
 
 Whichever engine renders (Workbench, EEVEE, Cycles) and in every viewport shading mode, the
 splats Blender draws at a frame are `collect_items`' splats at that frame with the look
-folded in (core/bake.baked_splats): effects, look, crop, morphs and sequences. They are
+folded in (core/fold_look.baked_splats): effects, look, crop, morphs and sequences. They are
 written into the object's companion (data/evaluated_geometry.py):
 - at every frame change, including each frame of a render (frame_change_post receives the
   render's own depsgraph); the depsgraph is then updated, so the engine syncs what was
@@ -23,7 +23,7 @@ import numpy as np
 
 import bpy
 
-from ...core.bake import baked_splats
+from ...core.fold_look import baked_splats
 from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import SplatSet
 from ..data import evaluated_geometry as geometry

@@ -27,13 +27,13 @@ from ...core.errors import SplatFormatError
 from ...core.holdout import combine_depth, holdout_depth
 from ...core.stop import SigintGuard, stop_requested
 from . import mesh_layer, motion_blur
-from . import paths as render_paths
+from . import backend as render_backend
 from .camera import camera_from_blender
-from ..compat import world_uses_nodes
 from ..registration import app_handlers
 from ..evaluate.holdout_geometry import clear_cache as clear_holdout_cache, holdout_for
 from ..evaluate.items import collect_items
 from .film import blender_depth, bottom_up, region_camera, render_region
+from .world import world_background
 
 
 class _RendererHolder:
@@ -53,7 +53,7 @@ class _RendererHolder:
             fresh = self._renderer is None or self._kind != (kind, depth)
             if fresh:
                 self._close_locked()
-                self._renderer, self.label = render_paths.make_renderer(kind, depth)
+                self._renderer, self.label = render_backend.make_renderer(kind, depth)
                 self._kind = (kind, depth)
             return self._renderer, fresh
 
@@ -99,7 +99,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
     bl_label = "Splatline"
     bl_use_preview = False
     # Blender's GPU context is current in render(): the Blender-GPU path draws there
-    # (render_paths.py). The moderngl path never touches it: its standalone context
+    # (backend.py). The moderngl path never touches it: its standalone context
     # lives on its own thread (DESIGN.md), so the two cannot clobber each other.
     bl_use_gpu_context = True
     bl_use_postprocess = True
@@ -265,57 +265,6 @@ def _write_view(result, view, rgba, depth):
     depth_pass = passes.find_by_name("Depth", view)
     if depth_pass is not None:
         depth_pass.rect.foreach_set(bottom_up(depth))
-
-
-def world_background(world) -> tuple[float, float, float]:
-    """The scene-linear colour the splats go over when Film > Transparent is off.
-
-    Pass the EVALUATED world (`depsgraph.scene_eval.world`): node socket values and
-    world.color may be keyframed or driven, and only the evaluated copy holds their
-    value at the frame being rendered (the original keeps whatever was last written).
-
-    `world.color` is only the world's viewport display colour; Cycles and EEVEE render
-    the world's node tree where it uses nodes (`compat.world_uses_nodes`: 4.5's
-    World.use_nodes; in 5.0 every world has a tree and use_nodes is deprecated). So:
-    - no world: black, as Blender's engines give;
-    - the active World Output's Surface fed (through reroutes) by an unmuted Background
-      node whose Color and Strength inputs are both plain values: Color x Strength,
-      the constant background Cycles/EEVEE would render;
-    - anything else (no node tree, nothing or another shader at the output, or a
-      Background whose Color or Strength comes from other nodes such as a sky or
-      environment texture, which this engine does not evaluate): `world.color`, the
-      one flat colour the user chose for that world (and what was used before).
-    """
-    if world is None:
-        return (0.0, 0.0, 0.0)
-    background = _background_node(world.node_tree) if world_uses_nodes(world) else None
-    if background is not None:
-        colour, strength = background.inputs["Color"], background.inputs["Strength"]
-        if not (colour.is_linked or strength.is_linked):
-            s = float(strength.default_value)
-            return tuple(float(c) * s for c in colour.default_value[:3])
-    return tuple(float(c) for c in world.color)
-
-
-def _background_node(tree):
-    """The Background node feeding the active World Output's Surface, or None."""
-    if tree is None:
-        return None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    if output is None:
-        return None
-    socket = output.inputs["Surface"]
-    for _ in range(len(tree.nodes)):  # follow reroutes; bounded, so a cycle cannot hang
-        links = [link for link in socket.links if link.is_valid and not link.is_muted]
-        if not links:
-            return None
-        node = links[0].from_node
-        if node.bl_idname == "NodeReroute":
-            socket = node.inputs[0]
-            continue
-        return node if node.bl_idname == "ShaderNodeBackground" and not node.mute else None
-    return None
 
 
 @bpy.app.handlers.persistent

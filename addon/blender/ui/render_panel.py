@@ -82,12 +82,12 @@ def _draw_motion_blur(layout, scene) -> None:
 
 def path_text(kind: str) -> str:
     """What the panel says about the path: the last render's, else what will be tried."""
-    from ..render import paths as render_paths
+    from ..render import backend as render_backend
 
-    label = render_paths.last_label()
+    label = render_backend.last_label()
     if label:
         return f"Last render: {label}"
-    if kind == "AUTO" and not render_paths.moderngl_installed():
+    if kind == "AUTO" and not render_backend.moderngl_installed():
         return "Will use: Blender GPU module (fallback: moderngl not installed)"
     return "Path is chosen at the first render"
 

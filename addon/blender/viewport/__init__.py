@@ -10,7 +10,7 @@ No state is kept on bpy: the drawer lives in this module and is torn down in unr
 from __future__ import annotations
 
 from .draw import close_shared, draw_items  # noqa: F401
-from .renderer import DrawSettings, ItemDisplay, Stats, ViewportRenderer  # noqa: F401
+from .viewport_renderer import DrawSettings, ItemDisplay, Stats, ViewportRenderer  # noqa: F401
 
 _drawer = None
 

@@ -3,7 +3,7 @@ the render engine's view_draw, the offscreen path and the tests. Its own module 
 handler and the offscreen path import it without importing the package that registers them."""
 from __future__ import annotations
 
-from .renderer import DrawSettings, ViewportRenderer
+from .viewport_renderer import DrawSettings, ViewportRenderer
 
 _shared = None  # renderer for draw_items callers that bring none (the engine's view_draw)
 

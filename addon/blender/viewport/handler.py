@@ -15,7 +15,7 @@ import bpy
 import gpu
 
 from .draw import draw_items
-from .renderer import DrawSettings, ViewportRenderer
+from .viewport_renderer import DrawSettings, ViewportRenderer
 from .scene_items import SceneItems
 
 _live = None  # the registered drawer, for the persistent bpy.app handlers

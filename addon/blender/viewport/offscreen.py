@@ -10,7 +10,7 @@ import numpy as np
 
 from .draw import draw_items
 from ...core.clip_space import projection_matrix
-from .renderer import DrawSettings, ViewportRenderer
+from .viewport_renderer import DrawSettings, ViewportRenderer
 
 
 def draw_camera(items, camera, *, settings: DrawSettings | None = None, displays=None,

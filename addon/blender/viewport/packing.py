@@ -27,7 +27,7 @@ import numpy as np
 
 from ...core.camera import Camera
 from ...core.clip_space import camera_from_projection
-from ...core.project import camera_in_object, j_clamp_bounds, split_float
+from ...core.preprocess import camera_in_object, j_clamp_bounds, split_float
 from ...core.splats import SplatSet, sh_coeff_count
 
 WIDTH = 4096          # texels per row of every data texture

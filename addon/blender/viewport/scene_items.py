@@ -17,7 +17,7 @@ import bpy
 from ..evaluate import items as evaluate
 from ..data import native
 from ..data.pointcloud import is_splat_object
-from .renderer import ItemDisplay
+from .viewport_renderer import ItemDisplay
 
 
 def display_for(obj) -> ItemDisplay:

@@ -36,7 +36,7 @@ def _create_context():
 
 
 class OffscreenRenderer:
-    """render(items, camera, options) -> RenderOutput, like every renderer.
+    """render(items, camera, options) -> RenderOutput: a core.renderer.Renderer.
 
     Same semantics as core/reference.py. Splats are composited front to back
     (gl/composite.py); options.early_termination stops a pixel at the end of the batch
@@ -57,17 +57,20 @@ class OffscreenRenderer:
     fragment, as the reference does (gl/holdout.py).
     """
 
+    has_holdout = has_panorama = has_defocus = has_early_termination = True
+
     def __init__(self, context_factory=_create_context, depth_pass: bool = True,
                  compute: bool | None = None):
         """depth_pass=False leaves out the Z attachment (RenderOutput.depth: one more
         RGBA32F target blended in the same draws) and returns depth filled with +inf.
         compute=None uses compute shaders (GPU preprocess, GPU or CPU sort, cached
         uploads) where GL >= 4.3; compute=False, or an older GL, takes the GL 3.3
-        fallback: CPU preprocess and sort (core/project.py, core/sort.py), GPU draw."""
+        fallback: CPU preprocess and sort (core/preprocess.py, core/sort.py), GPU draw."""
         self.stats = {"frames": 0, "geometry_uploads": 0, "sh_uploads": 0,
                       "bytes_uploaded": 0, "gpu_sorts": 0, "cpu_sorts": 0,
                       "splat_draws": 0, "saturation_passes": 0, "draw_flushes": 0,
                       "holdout_uploads": 0, "resident_objects": 0}
+        self.has_depth = bool(depth_pass)
         self._worker = GLWorker(context_factory)
         from .frame import FrameState
 

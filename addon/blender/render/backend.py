@@ -1,4 +1,5 @@
-"""Which renderer a final render uses, and why (the Render panel shows it).
+"""Which renderer (backend) a final render uses, and why (the Render panel shows it).
+Each is a core.renderer.Renderer and declares its own capabilities.
 
 - OFFSCREEN: moderngl on its own standalone context (addon/gl).
 - GPU_MODULE: Blender's gpu module drawing the viewport's code offscreen (gpu_render.py).
@@ -20,19 +21,6 @@ _lock = threading.Lock()
 _status = {"label": "", "fallback": ""}  # the path of the last render job, for the panel
 
 
-class ReferenceRenderer:
-    """core.reference behind the offscreen renderer's interface (it keeps no state)."""
-
-    has_depth = True
-
-    def render(self, items, camera, options):
-        from ...core import reference
-        return reference.render(items, camera, options)
-
-    def close(self):
-        pass
-
-
 def moderngl_label(renderer) -> str:
     backend = "EGL" if sys.platform.startswith("linux") else "native"
     name = renderer.gl_info.get("GL_RENDERER", "") if hasattr(renderer, "gl_info") else ""
@@ -49,9 +37,7 @@ def gpu_label(fallback: str = "") -> str:
 def _moderngl(depth: bool):
     from ...gl import OffscreenRenderer
 
-    renderer = OffscreenRenderer(depth_pass=depth)
-    renderer.has_depth = True
-    return renderer
+    return OffscreenRenderer(depth_pass=depth)
 
 
 def _gpu_module():
@@ -71,6 +57,8 @@ def why_moderngl_failed(exc: BaseException) -> str:
 def make_renderer(kind: str, depth: bool):
     """(renderer, label) for the RenderSettings.renderer value `kind`."""
     if kind == "REFERENCE":
+        from ...core.reference import ReferenceRenderer
+
         return _set(ReferenceRenderer(), "Reference (float64, CPU)")
     if kind == "GPU_MODULE":
         return _set(_gpu_module(), gpu_label())

@@ -36,12 +36,10 @@ import numpy as np
 from . import dof, equirect
 from .camera import Camera
 from .quaternion import to_matrix as quat_to_matrix
+from .render_constants import ALPHA_MIN, J_CLAMP_MARGIN, LOW_PASS
 from .scene import RenderItem
 from .sh import sh_to_rgb
 
-LOW_PASS = 0.3          # px^2 added to the 2D covariance's diagonal
-ALPHA_MIN = 1.0 / 255.0
-J_CLAMP_MARGIN = 0.15   # fraction of the frame, beyond each edge (INRIA's 1.3 tan(fov/2))
 _FLIP = np.diag([1.0, -1.0, -1.0])  # Blender camera -> INRIA screen axes
 
 

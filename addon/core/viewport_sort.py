@@ -1,6 +1,6 @@
 """The viewport's view-dependent CPU work: frustum culling and the global back-to-front
 order of several objects' splats, and the worker thread that computes it off the drawing
-thread. Pure (numpy, threading); blender/viewport/renderer.py drives it.
+thread. Pure (numpy, threading); blender/viewport/viewport_renderer.py drives it.
 
 All objects are sorted together, so overlapping objects interleave correctly.
 """

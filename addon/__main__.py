@@ -7,9 +7,12 @@ Errors a user can cause exit non-zero with one line naming the file and the prob
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
+import signal
 import sys
+import threading
 
 import numpy as np
 
@@ -76,6 +79,37 @@ def main(argv=None, prog: str = "python -m addon") -> int:
         _unrecognized(args.command_parser, unknown)
     module = importlib.import_module(f".cli.{args.command}", __package__)
     budget.set_max_memory(args.max_memory)
+    with _sigterm_as_sigint() as terminated:
+        rc = _run(module, args)
+    if terminated and rc == 0:  # caught where Blender swallows exceptions (a handler): the work
+        print("interrupted (SIGTERM)", file=sys.stderr)  # finished whole, but still a stop
+        return 130
+    return rc
+
+
+@contextlib.contextmanager
+def _sigterm_as_sigint():
+    """SIGTERM is handled as Ctrl+C for the command: KeyboardInterrupt, so every writer
+    removes its temporaries and claims and the command ends with "interrupted", exit 130
+    (a render stops after its finished frames: cli/render_job.py). Python code runs only
+    between Blender's C steps, so a .blend save in progress finishes, whole, first."""
+    terminated = []  # the SIGTERMs caught
+    if threading.current_thread() is not threading.main_thread():
+        yield terminated
+        return
+
+    def handler(signum, frame):
+        terminated.append(signum)
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield terminated
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _run(module, args) -> int:
     try:
         # Overflow in decoding (exp of a huge log-scale, ...) gives Inf, which the bad-value
         # policy then drops, fixes or refuses and reports on one line: numpy's own warnings
@@ -94,7 +128,7 @@ def main(argv=None, prog: str = "python -m addon") -> int:
     except MemoryError:
         print(f"error: out of memory running {args.command!r}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl+C, or SIGTERM (_sigterm_as_sigint)
         print("interrupted", file=sys.stderr)
         return 130
 

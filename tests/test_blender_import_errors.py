@@ -164,3 +164,32 @@ def test_nan_and_zero_quaternions_by_policy(bpy_empty, tmp_path):
     assert bpy.ops.import_scene.splatline_gaussians(filepath=str(path), bad_values="fix") == {"FINISHED"}
     with pytest.raises(RuntimeError, match="bad_values.ply: 2 splats with NaN/Inf"):
         bpy.ops.import_scene.splatline_gaussians(filepath=str(path), bad_values="error")
+
+
+def test_blenders_copy_of_the_splats_is_checked_against_the_budget(bpy_empty, tmp_path):
+    """Issue 26: the memory budget counts what the PointCloud will hold (every attribute as
+    float32, pointcloud.blender_bytes) before creating it, on top of the splats reading
+    holds. A budget that the reading fits into, with 16 MiB to spare, refuses Blender's
+    copy in one line, and nothing is created; without the budget the file imports."""
+    import gc
+
+    from addon.blender.data.files import import_file
+    from addon.core import budget
+    from addon.core.formats import write
+    from addon.core.formats._common import splat_bytes
+    from testing.synth import random_splats
+
+    count = 300_000
+    path = tmp_path / "big.ply"
+    write(str(path), random_splats(count, degree=3, seed=1))
+    gc.collect()
+    budget.set_max_memory(budget.resident() + splat_bytes(count, 45) + (16 << 20))
+    try:
+        with pytest.raises(SplatFormatError, match=r"big\.ply: would take .*300000 splats of SH "
+                                                   r"degree 3 as Blender attributes.*--max-memory"):
+            import_file(bpy_empty.context, path)
+    finally:
+        budget.set_max_memory(None)
+    assert _counts(bpy_empty) == (0, 0, 0)
+    obj = import_file(bpy_empty.context, path)
+    assert len(obj.data.points) == count

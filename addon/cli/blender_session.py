@@ -41,6 +41,39 @@ def start(blend_path=None):
     return bpy
 
 
+def save_blend(bpy, path) -> None:
+    """Save the open scene as `path`, atomically as far as Blender allows: Blender writes
+    `PATH@` whole, then renames it over `path`, so the old file stays whole until the
+    rename. Backups are off for the save (Blender's `.blend1` step renames the old file
+    away first, leaving a moment with no `path` at all, and a stray `.blend1` after).
+    The output is claimed as every other writer's is (core/atomic.claim), so a `PATH@` left
+    by a killed save is no other Splatline save's: it is removed first (Blender would
+    truncate a regular one anyway, and would block on anything else). A failed save is one
+    UserError naming the file."""
+    from ..core import atomic
+    from . import UserError
+
+    path = os.path.abspath(os.fspath(path))
+    folder, name = os.path.split(path)
+    try:
+        with atomic.claim(os.path.join(folder, f".{name}.splatline.lock"), "this .blend"):
+            stale = path + "@"
+            if os.path.lexists(stale) and not os.path.isdir(stale):
+                os.unlink(stale)
+            paths = bpy.context.preferences.filepaths
+            versions, paths.save_version = paths.save_version, 0
+            try:
+                result = bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
+            finally:
+                paths.save_version = versions
+    except atomic.Claimed as exc:
+        raise UserError(f"{path}: {exc}") from None
+    except RuntimeError as exc:  # Blender reports a failed save as an error report
+        raise UserError(f"{path}: cannot save: {' '.join(str(exc).split())}") from None
+    if "FINISHED" not in result:
+        raise UserError(f"{path}: Blender could not save the .blend")
+
+
 def _open(bpy, path) -> None:
     """open_mainfile, whose failure is one line: Blender prints its own report of a file it
     cannot read ("Error: File format is not supported in file ...") on stdout before raising

@@ -128,9 +128,7 @@ def run(args) -> int:
         aspect=width / height)
     _setup_render(bpy, scene, width, height, args.z)
     blend = os.path.join(out, "demo.blend")
-    if os.path.exists(blend):
-        os.remove(blend)  # a fresh file, not an overwrite: Blender would keep demo.blend1
-    bpy.ops.wm.save_as_mainfile(filepath=blend, check_existing=False)
+    blender_session.save_blend(bpy, blend)  # no demo.blend1 beside it
     print(f"built {source.name} ({len(source.data.points):,} splats) morphing into {target.name} "
           f"({len(target.data.points):,}) in {time.perf_counter() - t:.1f} s; saved {blend}", flush=True)
 

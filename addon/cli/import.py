@@ -62,7 +62,7 @@ def run(args) -> int:
     frames = seconds_range(camera, args.framing)
     if frames is None and camera == "orbit":
         frames = frame_range(camera)
-    from .blender_session import start
+    from .blender_session import save_blend, start
 
     bpy = start()
     from ..blender.data.files import import_file_with_report
@@ -91,12 +91,7 @@ def run(args) -> int:
             add_camera(bpy, imported, camera, frames, args.framing, args.files[0])
         except ValueError as exc:
             raise UserError(f"{args.files[0]}: cannot frame the capture: {exc}") from None
-    try:
-        result = bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.blend))
-    except RuntimeError as exc:  # Blender reports a failed save as an error report
-        raise SplatFormatError(args.blend, f"cannot save: {str(exc).strip()}") from None
-    if "FINISHED" not in result:
-        raise SplatFormatError(args.blend, "Blender could not save the .blend")
+    save_blend(bpy, args.blend)
     print(f"wrote {args.blend} ({len(args.files)} object(s))")
     return 0
 

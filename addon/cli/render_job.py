@@ -1,6 +1,7 @@
 """One animation render driven from the command line (`render` and `demo` both run it):
 Blender's own pipeline (bpy.ops.render.render, what `blender -b -a` runs), a line per
-finished frame from Blender's render handlers, and Ctrl+C.
+finished frame from Blender's render handlers, and Ctrl+C. Blender's GPU-context probe
+lines (`EGL Error ... EGL_BAD_MATCH`) are kept off stderr (stderr_filter.py).
 
 The output folder's frames are claimed while the job runs (`_claimed`): a second render
 of overlapping frames into it stops with one line. SIGTERM is handled as SIGINT.
@@ -33,6 +34,7 @@ import time
 
 from . import UserError
 from ..core import atomic, stop
+from .stderr_filter import without_egl_probe_lines
 
 
 class Progress:
@@ -186,7 +188,7 @@ def render_animation(bpy, scene, total: int, label: str) -> tuple[list[float], b
     """Render the scene's frame range: (seconds per finished frame, whether Ctrl+C stopped
     it). A render error other than the stop is a UserError starting with `label`."""
     with _claimed(scene), TemporaryFrames(bpy, scene) as frames, \
-            Progress(bpy, total, frames) as progress, _StopOnSigint():
+            Progress(bpy, total, frames) as progress, _StopOnSigint(), without_egl_probe_lines():
         try:
             bpy.ops.render.render(animation=True, scene=scene.name)
         except RuntimeError as exc:

@@ -9,7 +9,8 @@ Temporaries are removed when the write fails (any exception, KeyboardInterrupt i
 and when the process ends by a signal it can catch: every live temporary is registered
 here, and while a write runs in the main thread of a process whose SIGTERM is still the
 default, SIGTERM removes them and then terminates the process by SIGTERM as before
-(the command line installs its own SIGTERM handler instead: cli/render_job.py). kill -9
+(the command line handles SIGTERM as Ctrl+C instead, addon/__main__.py: the
+KeyboardInterrupt removes them as any exception does). kill -9
 cannot be caught: it may leave a `.NAME.PID.HEX.tmp` beside the target, never a damaged
 target.
 

@@ -11,12 +11,12 @@ import os
 
 import bpy
 
-from ...core import formats
+from ...core import budget, formats
 from ...core.axes import euler_for
 from ...core.errors import SplatFormatError
 from ...core.reframe import reframe
 from ...core.splats import AXES, AXES_RDF
-from .pointcloud import new_pointcloud_object, splats_from_pointcloud
+from .pointcloud import blender_bytes, new_pointcloud_object, splats_from_pointcloud
 
 SOURCE_PROP = "splatline_source"
 AXES_PROP = "splatline_axes"
@@ -61,6 +61,9 @@ def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, 
         progress(0.6)  # reading is about 60% of an import (bench/import_bench.py, read column)
     if axes != "AUTO":
         splats.axes = axes
+    if max_splats is None:  # Blender's copy of the splats, on top of what reading holds
+        budget.check(path, blender_bytes(splats.count, splats.sh_degree), "--max-memory",
+                     f"{splats.count} splats of SH degree {splats.sh_degree} as Blender attributes")
     if context.mode != "OBJECT":  # Blender's convert operator, used to build it, needs object mode
         bpy.ops.object.mode_set(mode="OBJECT")
     target = collection or context.collection or context.scene.collection

@@ -193,7 +193,12 @@ BLEND_CHILD = textwrap.dedent("""
 
     if point != "none":
         bpy.app.handlers.save_pre.append(before_save)
-    sys.exit(main(["import", source, "--blend", out]))
+    try:
+        rc = main(["import", source, "--blend", out])
+    finally:  # bpy 4.5 hangs at exit with a Python handler still registered
+        if before_save in bpy.app.handlers.save_pre:
+            bpy.app.handlers.save_pre.remove(before_save)
+    sys.exit(rc)
 """)
 
 _BLEND_OBJECTS = ("import json, sys, bpy; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "

@@ -10,6 +10,7 @@ them broke a promise (|q| 1.22 from compressed PLY, NaN or zero quaternions, sca
 from __future__ import annotations
 
 import gzip
+import resource
 import struct
 import time
 import zlib
@@ -37,6 +38,13 @@ def _seeds(testdata, tmp_path_factory) -> dict:
     ascii_path = tmp_path_factory.mktemp("seed") / "ascii.ply"
     write_ply_variant(ascii_path, read(testdata / "test64.ply"), encoding="ascii")
     seeds["ascii_ply"] = ("ply", ascii_path.read_bytes())
+    # issue 26: headers claiming 10M splats over a few bytes (a gzip'd v2 of zeros, as the
+    # 185 KB file that took 2.76 GB; a v4 whose count says 10M over test64's streams)
+    head = struct.pack("<4sIIBBBB", b"NGSP", 2, 10_000_000, 0, 12, 0, 0)
+    seeds["spz_v2_zeros_claims_10m"] = ("spz", gzip.compress(head + bytes(19 * 64)))
+    v4 = bytearray(seeds["spz"][1])
+    struct.pack_into("<I", v4, 8, 10_000_000)
+    seeds["spz_v4_claims_10m"] = ("spz", bytes(v4))
     return seeds
 
 
@@ -147,17 +155,23 @@ def _one(path, data: bytes, bad: str) -> str | None:
 def test_fuzz_readers(testdata, tmp_path, tmp_path_factory):
     seeds = _seeds(testdata, tmp_path_factory)
     start, problems, outcomes = time.perf_counter(), [], {"read": 0, "refused": 0}
+    slowest = 0.0
     with np.errstate(all="ignore"):  # overflow warnings on garbage are expected, not findings
         for name, (ext, data) in sorted(seeds.items()):
             path = tmp_path / f"fuzz.{ext}"
             for i in range(CASES_PER_SEED):
                 rng = np.random.default_rng((11, zlib.crc32(name.encode()), i))
-                problem = _one(path, mutate(rng, data, ext), "drop" if i % 4 == 3 else "fix")
+                case = mutate(rng, data, ext)
+                t0 = time.perf_counter()
+                problem = _one(path, case, "drop" if i % 4 == 3 else "fix")
+                slowest = max(slowest, time.perf_counter() - t0)
                 if problem in outcomes:
                     outcomes[problem] += 1
                 else:
                     problems.append(f"{name} case {i}: {problem}")
     elapsed = time.perf_counter() - start
     total = len(problems) + sum(outcomes.values())
-    print(f"fuzzed {total} inputs in {elapsed:.1f} s: {outcomes}")
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"fuzzed {total} inputs in {elapsed:.1f} s: {outcomes}; slowest case {slowest:.2f} s, "
+          f"process max RSS {rss:.0f} MiB")
     assert not problems, f"{len(problems)} of {total}:\n" + "\n".join(problems[:20])

@@ -6,7 +6,10 @@ accessors pointing past their buffer, wrong component types, strides, sparse), W
 claiming 16383 x 16383 images, zip members deleted, swapped, stored with an unknown method,
 declaring huge sizes, or replaced by a deflate bomb, unbundled SOGs with images missing or
 turned into folders, .glb BIN chunks cut short with the lengths kept consistent, and raw bit
-flips, special floats and truncations. Each input is read with bad="fix" (every 4th
+flips, special floats and truncations; and issue 26's: zips flagged encrypted, NUL bytes in
+SOG file names and glTF URIs (a glTF whose primitives reuse one accessor set is measured in
+tests/test_one_line_errors.py instead: under the default budget it may legitimately decode
+more than this file's allocation cap). Each input is read with bad="fix" (every 4th
 "drop") and must either keep the reader promises (finite values, unit quaternions, scales
 > 0, opacity in 0..1) or raise SplatFormatError naming the file. Other exceptions are bugs,
 and so is a decode whose Python allocations (tracemalloc: numpy's included) peak above
@@ -22,6 +25,7 @@ import contextlib
 import io
 import json
 import math
+import resource
 import shutil
 import signal
 import struct
@@ -39,7 +43,8 @@ from addon.core.formats import read, write
 from test_formats_fuzz import BUDGET, check_promises
 from webp_support import needs_straight_webp
 
-CASES = {"sog_zip": 900, "sog_unbundled": 400, "glb": 1200, "gltf": 400}
+CASES = {"sog_zip": 900, "sog_unbundled": 400, "glb": 1200, "gltf": 400,
+         "sog_encrypted": 150, "sog_nul_name": 60}  # the last two: issue 26
 MAX_PEAK = 64 << 20
 HANG_S = 30
 HOSTILE = [-1, 0, 1, 2, 3, 4, 63, 65, 255, 256, 257, 4096, 65535, 65536, 1 << 28, 1 << 31, 1 << 32,
@@ -188,6 +193,36 @@ def mutate_sog_zip(rng, seed: bytes, bombs: list) -> bytes:
     return _patch_central(bomb, rng, "size") if rng.random() < 0.3 else bomb
 
 
+def encrypted_zip(rng, seed: bytes) -> bytes:
+    """Issue 26: the seed with the "encrypted" flag (general-purpose bit 0) set on some
+    members' local and central headers (a RuntimeError from zipfile before), then maybe
+    mutated as mutate_sog_zip does."""
+    out = bytearray(seed)
+    for sig, flag_at in ((b"PK\x03\x04", 6), (b"PK\x01\x02", 8)):
+        at = out.find(sig)
+        while at >= 0:
+            if rng.random() < 0.6:
+                out[at + flag_at] |= 1
+            at = out.find(sig, at + 4)
+    return bytes(out) if rng.random() < 0.5 else _raw(rng, bytes(out), 30)
+
+
+def nul_name(rng, name: str) -> str:
+    """name with a NUL byte put in (issue 26: ValueError 'embedded null byte' before)."""
+    at = int(rng.integers(0, len(name) + 1))
+    return name[:at] + "\0" + name[at:]
+
+
+def _nul_meta(rng, members: dict) -> dict:
+    meta = json.loads(members["meta.json"])
+    keys = [k for k, v in meta.items() if isinstance(v, dict) and isinstance(v.get("files"), list)]
+    files = meta[keys[int(rng.integers(len(keys)))]]["files"]
+    j = int(rng.integers(len(files)))
+    files[j] = nul_name(rng, files[j])
+    members["meta.json"] = _dump(meta)
+    return members
+
+
 def write_sog_unbundled(rng, folder, seed_folder) -> None:
     """A mutated copy of an unbundled SOG in folder: meta.json plus its images."""
     members = {p.name: p.read_bytes() for p in seed_folder.iterdir()}
@@ -273,7 +308,8 @@ def mutate_gltf(rng, seed: bytes) -> bytes:
         doc["buffers"][0]["uri"] = head + "," + body
     else:  # an external buffer that is missing, outside the folder or a URL
         doc["buffers"][0]["uri"] = str(rng.choice(["missing.bin", "../x.bin", "/etc/hostname",
-                                                   "http://example.com/x.bin", "a%2F..%2F..%2Fx", ""]))
+                                                   "http://example.com/x.bin", "a%2F..%2F..%2Fx", "",
+                                                   "x\0.bin", "\0", "seed.bin\0.txt"]))
     return _dump(doc)
 
 
@@ -300,6 +336,9 @@ def _hang_guard():
         signal.signal(signal.SIGALRM, old)
 
 
+FIGURES = {"max_case_s": 0.0, "max_traced": 0}
+
+
 def outcome(path, bad: str) -> str:
     """'read' or 'refused' when the reader kept its promises, else what went wrong. An
     unbundled SOG's errors name its folder and the image at fault (tests/test_formats_sog.py)."""
@@ -321,6 +360,7 @@ def outcome(path, bad: str) -> str:
         except AssertionError as exc:
             return f"promise broken: {exc}"
     peak = tracemalloc.get_traced_memory()[1]
+    FIGURES["max_traced"] = max(FIGURES["max_traced"], peak)
     return result if peak <= MAX_PEAK else f"allocated {peak / 2**20:.0f} MiB ({result})"
 
 
@@ -328,7 +368,9 @@ def _run(name, cases, make_input, problems, outcomes) -> None:
     for i in range(cases):
         rng = np.random.default_rng((13, zlib.crc32(name.encode()), i))
         path = make_input(rng, i)
+        t0 = time.perf_counter()
         problem = outcome(path, "drop" if i % 4 == 3 else "fix")
+        FIGURES["max_case_s"] = max(FIGURES["max_case_s"], time.perf_counter() - t0)
         if problem in outcomes:
             outcomes[problem] += 1
         else:
@@ -337,7 +379,10 @@ def _run(name, cases, make_input, problems, outcomes) -> None:
 
 def _report(start, problems, outcomes, what):
     total = len(problems) + sum(outcomes.values())
-    print(f"fuzzed {total} {what} inputs in {time.perf_counter() - start:.1f} s: {outcomes}")
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"fuzzed {total} {what} inputs in {time.perf_counter() - start:.1f} s: {outcomes}; slowest "
+          f"case {FIGURES['max_case_s']:.2f} s, largest traced peak {FIGURES['max_traced'] / 2**20:.1f} "
+          f"MiB, process max RSS {rss:.0f} MiB")
     assert not problems, f"{len(problems)} of {total}:\n" + "\n".join(problems[:20])
 
 
@@ -367,9 +412,30 @@ def test_fuzz_sog(testdata, tmp_path, traced):
         write_sog_unbundled(rng, case, unbundled)
         return case / "meta.json"
 
+    def encrypted(rng, i):
+        path = tmp_path / "fuzz.sog"
+        path.write_bytes(encrypted_zip(rng, seed))
+        return path
+
+    def nul_zipped(rng, i):
+        path = tmp_path / "fuzz.sog"
+        path.write_bytes(_zip(_nul_meta(rng, _members(io.BytesIO(seed)))))
+        return path
+
+    def nul_folder(rng, i):
+        case = tmp_path / f"nul{i % 2}"
+        shutil.rmtree(case, ignore_errors=True)
+        case.mkdir()
+        for name, data in _nul_meta(rng, {p.name: p.read_bytes() for p in unbundled.iterdir()}).items():
+            (case / name).write_bytes(data)
+        return case / "meta.json"
+
     with np.errstate(all="ignore"):
         _run("sog_zip", CASES["sog_zip"], zipped, problems, outcomes)
         _run("sog_unbundled", CASES["sog_unbundled"], folder, problems, outcomes)
+        _run("sog_encrypted", CASES["sog_encrypted"], encrypted, problems, outcomes)
+        _run("sog_nul_name_zip", CASES["sog_nul_name"], nul_zipped, problems, outcomes)
+        _run("sog_nul_name_unbundled", CASES["sog_nul_name"], nul_folder, problems, outcomes)
     _report(start, problems, outcomes, "SOG")
 
 

@@ -120,6 +120,10 @@ def test_a_killed_write_leaves_the_old_output_intact(tmp_path, name, point, sig)
     if sig == signal.SIGTERM:  # a signal the process can catch: no temporary left behind
         assert sorted(after) == sorted(before), f"left behind: {sorted(set(after) - set(before))}"
     assert read(str(folder / name)).count == 700
+    # the next normal write to that output removes what kill -9 left (the writer is gone)
+    write(str(folder / name), random_splats(900, degree=1, seed=3))
+    assert sorted(os.listdir(folder)) == sorted(before), "a dead writer's temporary stayed"
+    assert read(str(folder / name)).count == 900
 
 
 @pytest.mark.parametrize("name", OUTPUTS)

@@ -77,23 +77,7 @@ _FRAME_TEMPORARY = re.compile(r"^\..+\.(\d+)\.frametmp(\.[A-Za-z0-9]+)?$")
 def remove_dead_frames(folder: str) -> None:
     """Remove the hidden frame temporaries a killed render (kill -9) left in folder: those
     whose process is gone."""
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return
-    for name in names:
-        m = _FRAME_TEMPORARY.match(name)
-        if m is None or int(m.group(1)) == os.getpid():
-            continue
-        try:
-            os.kill(int(m.group(1)), 0)
-            continue  # that render still runs
-        except ProcessLookupError:
-            pass
-        except (PermissionError, OverflowError, OSError):
-            continue
-        with contextlib.suppress(OSError):
-            os.unlink(os.path.join(folder, name))
+    atomic.remove_dead_temporaries(folder, _FRAME_TEMPORARY)
 
 
 class TemporaryFrames:

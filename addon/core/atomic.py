@@ -12,7 +12,7 @@ default, SIGTERM removes them and then terminates the process by SIGTERM as befo
 (the command line handles SIGTERM as Ctrl+C instead, addon/__main__.py: the
 KeyboardInterrupt removes them as any exception does). kill -9
 cannot be caught: it may leave a `.NAME.PID.HEX.tmp` beside the target, never a damaged
-target.
+target, and the next write to that target removes it once its writer is gone.
 
 Several files (an unbundled SOG: its images and meta.json) go through `write_group`: every
 file is first written whole as a temporary beside its target, then each is renamed in,
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -135,9 +136,42 @@ def _stat(target: str):
         return None
 
 
+_FILE_TEMPORARY = r"^\.{name}\.(\d+)\.[0-9a-f]+\.tmp$"
+
+
+def _process_gone(pid: int) -> bool:
+    """Whether no process has this id (one we may not signal, or an odd id, counts as live)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except (PermissionError, OverflowError, OSError):
+        return False
+    return False
+
+
+def remove_dead_temporaries(folder: str, pattern) -> None:
+    """Remove the temporaries a process killed by kill -9 left in folder: names matching
+    pattern (a regex whose group 1 is the writer's process id) whose process is gone. A live
+    writer's, ours included, stay."""
+    pattern = re.compile(pattern) if isinstance(pattern, str) else pattern
+    try:
+        names = os.listdir(folder or ".")
+    except OSError:
+        return
+    for name in names:
+        m = pattern.match(name)
+        if m is None or int(m.group(1)) == os.getpid() or not _process_gone(int(m.group(1))):
+            continue
+        with contextlib.suppress(OSError):
+            os.unlink(os.path.join(folder, name))
+
+
 def stage(target: str, parts) -> str:
     """Write parts whole into a new registered temporary beside target, fsync'd; its path.
     target is the symlink-resolved path, so a link keeps pointing at the new file."""
+    folder, name = os.path.split(target)
+    remove_dead_temporaries(folder, _FILE_TEMPORARY.format(name=re.escape(name)))
     tmp = temporary_name(target)
     _register(tmp)
     try:

@@ -1,4 +1,6 @@
-"""Ctrl+C as a terminal sends it: the one harness of the SIGINT tests (a bpy script, the CLI)."""
+"""Child processes stopped on cue: Ctrl+C as a terminal sends it (the one harness of the SIGINT
+tests: a bpy script, the CLI), and the wait for a child to reach a point it marks with a file
+(the kill and claim tests)."""
 from __future__ import annotations
 
 import signal
@@ -26,3 +28,18 @@ def interrupt_after(command, first_output, cwd=None, timeout=60) -> tuple[int, s
         if proc.poll() is None:
             proc.kill()
     return proc.returncode, stdout, stderr
+
+
+def wait_for_marker(proc, marker, timeout=120) -> None:
+    """Wait until the child `proc` creates the file `marker` (the point it pauses at). A child
+    that ends first, or never gets there (then killed), fails the test with its output."""
+    t0 = time.monotonic()
+    while not marker.exists():
+        if proc.poll() is not None:
+            out, err = (b.decode() if isinstance(b, bytes) else b or "" for b in proc.communicate())
+            raise AssertionError(f"the child ended (rc {proc.returncode}) before its marker: "
+                                 f"{out[-1500:]} {err[-1500:]}")
+        if time.monotonic() - t0 > timeout:
+            proc.kill()
+            raise AssertionError(f"the child never reached its marker in {timeout} s")
+        time.sleep(0.02)

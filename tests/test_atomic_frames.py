@@ -7,13 +7,13 @@ the job renames it, and the test kills it there (kill -9 or SIGTERM)."""
 from __future__ import annotations
 
 import os
-import signal
 import struct
 import subprocess
 import sys
 import textwrap
-import time
 import zlib
+
+from interrupt import wait_for_marker
 
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -85,23 +85,11 @@ def _child(tmp_path, testdata, out):
     return proc, marker
 
 
-def _wait(proc, marker, timeout=120):
-    t0 = time.monotonic()
-    while not marker.exists():
-        if proc.poll() is not None:
-            raise AssertionError(f"ended before frame 2 (rc {proc.returncode}): "
-                                 f"{proc.stdout.read()[-1500:]} {proc.stderr.read()[-1500:]}")
-        if time.monotonic() - t0 > timeout:
-            proc.kill()
-            raise AssertionError("never reached frame 2")
-        time.sleep(0.05)
-
-
 def test_a_killed_render_leaves_the_frame_being_written_and_later_ones_untouched(tmp_path, testdata):
     out = tmp_path / "out"
     old = _old_frames(out)
     proc, marker = _child(tmp_path, testdata, out)
-    _wait(proc, marker)
+    wait_for_marker(proc, marker)
     proc.kill()
     proc.wait(60)
     assert png_whole((out / "frame_0001.png").read_bytes())  # finished: renamed in

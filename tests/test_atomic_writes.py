@@ -21,6 +21,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from addon.core.formats import read, write  # noqa: E402
+from interrupt import wait_for_marker  # noqa: E402
 from testing.synth import random_splats  # noqa: E402
 
 OUTPUTS = ["a.ply", "a.splat", "a.spz", "a.compressed.ply", "a.glb", "a.gltf", "a.sog", "meta.json"]
@@ -91,18 +92,6 @@ def _child(out, point, marker, cli=False):
                             stderr=subprocess.PIPE)
 
 
-def _wait_marker(proc, marker, timeout=120):
-    t0 = time.monotonic()
-    while not marker.exists():
-        if proc.poll() is not None:
-            raise AssertionError(f"the child ended (rc {proc.returncode}) before the point: "
-                                 f"{proc.stderr.read().decode()[-2000:]}")
-        if time.monotonic() - t0 > timeout:
-            proc.kill()
-            raise AssertionError("the child never reached the point")
-        time.sleep(0.02)
-
-
 @pytest.mark.parametrize("name", OUTPUTS)
 @pytest.mark.parametrize("point", ["open", "replace"])
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["kill9", "sigterm"])
@@ -110,7 +99,7 @@ def test_a_killed_write_leaves_the_old_output_intact(tmp_path, name, point, sig)
     folder, before = _old_output(tmp_path, name)
     marker = tmp_path / "paused"
     proc = _child(folder / name, point, marker)
-    _wait_marker(proc, marker)
+    wait_for_marker(proc, marker)
     proc.send_signal(sig)
     proc.wait(60)
     assert proc.returncode == -sig
@@ -134,7 +123,7 @@ def test_sigterm_stops_a_convert_as_ctrl_c_does(tmp_path, name, point):
     folder, before = _old_output(tmp_path, name)
     marker = tmp_path / "paused"
     proc = _child(folder / name, point, marker, cli=True)
-    _wait_marker(proc, marker)
+    wait_for_marker(proc, marker)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err.decode()[-2000:]
@@ -271,7 +260,7 @@ def test_a_killed_blend_save_leaves_the_old_blend(testdata, tmp_path, old_blend,
     blend.write_bytes(old_bytes)
     marker = tmp_path / "paused"
     proc = _import_blend(testdata / "guitar.ply", blend, point, marker)
-    _wait_marker(proc, marker)
+    wait_for_marker(proc, marker)
     fd = _read_pipe(str(blend) + "@", nbytes, proc) if point != "save_pre" else None
     try:
         proc.send_signal(sig)

@@ -400,32 +400,33 @@ def test_fuzz_sog(testdata, tmp_path, traced):
     unbundled = testdata / "test64_sog_unbundled"
     start, problems, outcomes = time.perf_counter(), [], {"read": 0, "refused": 0}
 
-    def zipped(rng, i):
+    def sog_file(data: bytes):
         path = tmp_path / "fuzz.sog"
-        path.write_bytes(mutate_sog_zip(rng, seed, bombs))
+        path.write_bytes(data)
         return path
 
-    def folder(rng, i):
-        case = tmp_path / f"un{i % 2}"
+    def empty_folder(name: str):
+        case = tmp_path / name
         shutil.rmtree(case, ignore_errors=True)
         case.mkdir()
+        return case
+
+    def zipped(rng, i):
+        return sog_file(mutate_sog_zip(rng, seed, bombs))
+
+    def folder(rng, i):
+        case = empty_folder(f"un{i % 2}")
         write_sog_unbundled(rng, case, unbundled)
         return case / "meta.json"
 
     def encrypted(rng, i):
-        path = tmp_path / "fuzz.sog"
-        path.write_bytes(encrypted_zip(rng, seed))
-        return path
+        return sog_file(encrypted_zip(rng, seed))
 
     def nul_zipped(rng, i):
-        path = tmp_path / "fuzz.sog"
-        path.write_bytes(_zip(_nul_meta(rng, _members(io.BytesIO(seed)))))
-        return path
+        return sog_file(_zip(_nul_meta(rng, _members(io.BytesIO(seed)))))
 
     def nul_folder(rng, i):
-        case = tmp_path / f"nul{i % 2}"
-        shutil.rmtree(case, ignore_errors=True)
-        case.mkdir()
+        case = empty_folder(f"nul{i % 2}")
         for name, data in _nul_meta(rng, {p.name: p.read_bytes() for p in unbundled.iterdir()}).items():
             (case / name).write_bytes(data)
         return case / "meta.json"

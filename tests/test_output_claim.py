@@ -10,6 +10,7 @@ import sys
 import textwrap
 import time
 
+from interrupt import wait_for_marker
 from test_atomic_frames import png_whole
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -59,21 +60,11 @@ def _start(code):
                             stderr=subprocess.PIPE, text=True)
 
 
-def _wait(proc, marker, timeout=120):
-    t0 = time.monotonic()
-    while not marker.exists():
-        if proc.poll() is not None:
-            out, err = proc.communicate()
-            raise AssertionError(f"ended early (rc {proc.returncode}): {out[-1500:]} {err[-1500:]}")
-        assert time.monotonic() - t0 < timeout, "never reached the hold"
-        time.sleep(0.02)
-
-
 def _render_child(tmp_path, testdata, out):
     marker, go = tmp_path / "held", tmp_path / "go"
     proc = _start(RENDER_CHILD.format(root=ROOT, marker=str(marker), go=str(go), out=str(out),
                                       capture=str(testdata / "guitar.splat")))
-    _wait(proc, marker)
+    wait_for_marker(proc, marker)
     return proc, go
 
 
@@ -117,7 +108,7 @@ def test_a_second_convert_to_the_same_output_stops_with_one_line(tmp_path, testd
     marker, go = tmp_path / "held", tmp_path / "go"
     first = _start(CONVERT_CHILD.format(root=ROOT, marker=str(marker), go=str(go),
                                         source=str(testdata / "guitar.splat"), out=str(out / "g.ply")))
-    _wait(first, marker)
+    wait_for_marker(first, marker)
     second, (rc_first, stdout, stderr) = _while_held(first, go, "convert", testdata / "guitar.spz",
                                                      out / "g.ply")
     assert second.returncode == 1, second.stdout + second.stderr

@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 
 from . import UsageError, UserError
-from .framing_options import DEFAULT_FPS, DEFAULT_ORBIT_FRAMES, VIEWS, Framing, set_fps
+from .framing_options import DEFAULT_FPS, DEFAULT_ORBIT_FRAMES, VIEWS, Framing
 
 CAMERA_MODES = VIEWS
 
@@ -88,7 +88,7 @@ def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing(), 
     scene = bpy.context.scene
     if isinstance(camera, str):  # an orbit turns once over the range it is given, or the scene's
         if options.fps is not None:
-            set_fps(scene, options.fps)
+            capture_camera.set_frame_rate(scene, options.fps)
         start, end = frames or (scene.frame_start, scene.frame_end)
         capture_camera.add_framing_camera(bpy.context, objects, camera, start, end, options.fill,
                                           options.elevation, options.lens, options.fov)
@@ -96,9 +96,7 @@ def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing(), 
             _say_capture_fallback(objects[0], source)
         return
     check_camera_options(camera, options)
-    fps = camera.frame_rate  # Blender keeps an integer rate and a divisor
-    scene.render.fps = max(1, round(fps))
-    scene.render.fps_base = scene.render.fps / fps
+    capture_camera.set_frame_rate(scene, camera.frame_rate)
     if frames is None:  # the scene plays the whole track
         scene.frame_end = scene.frame_start + camera.last_frame
     capture_camera.add_track_camera(bpy.context, camera, objects[0] if objects else None,

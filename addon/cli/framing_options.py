@@ -21,7 +21,7 @@ MAX_ELEVATION = 89.0  # straight down the up axis the frame would have no "up"
 MIN_LENS, MAX_LENS = 1.0, 5000.0
 MIN_FOV, MAX_FOV = 0.367, 172.847
 MIN_FPS, MAX_FPS = 1, 32767
-MAX_FRAME = 1048574  # as render.MAX_FRAME: Scene.frame_end's hard max
+MAX_FRAME = 1048574  # Scene.frame_start/frame_end's hard max (render.py's limits use it too)
 
 CAMERA_HELP = (
     "a view or a camera track. Views, in the capture's upright frame (its up is the file's "
@@ -130,8 +130,3 @@ def _count(seconds: float, fps: float) -> int:
                          f"(Blender's limit)")
     return count
 
-
-def set_fps(scene, fps: float) -> None:
-    """Blender keeps an integer rate and a divisor: 29.97 is 30 / 1.001."""
-    scene.render.fps = max(1, round(fps))
-    scene.render.fps_base = scene.render.fps / fps

@@ -46,7 +46,7 @@ _BOOL = {"1": True, "true": True, "on": True, "yes": True,
 # Blender's own limits (RNA hard_min/hard_max of Scene.frame_start/frame_end and
 # RenderSettings.resolution_x/y, the same on 4.5-5.3; tests/test_one_line_errors.py checks
 # them against RNA): a value outside is refused, never clamped.
-MAX_FRAME = 1048574
+MAX_FRAME = framing_options.MAX_FRAME
 MIN_RESOLUTION, MAX_RESOLUTION = 4, 65536
 
 
@@ -236,7 +236,8 @@ def _set_frame_size(scene, args) -> None:
 def _set_rate_and_length(scene, options) -> None:
     """--fps and --seconds on a .blend (a capture's scene has them already)."""
     if options.fps is not None:
-        framing_options.set_fps(scene, options.fps)
+        from ..blender.data.capture_camera import set_frame_rate
+        set_frame_rate(scene, options.fps)
     count = options.frame_count(scene.render.fps / scene.render.fps_base)
     if count is not None:
         if scene.frame_start + count - 1 > MAX_FRAME:

@@ -123,6 +123,13 @@ def key_poses(camera, poses) -> None:
         curves[(path, index)].update()
 
 
+def set_frame_rate(scene, fps: float) -> None:
+    """The scene's rate as Blender keeps it, an integer rate and a divisor: 29.97 is 30 / 1.001
+    (a camera track's rate, or the command line's --fps)."""
+    scene.render.fps = max(1, round(fps))
+    scene.render.fps_base = scene.render.fps / fps
+
+
 def add_track_camera(context, track: camtrack.CameraTrack, reference=None, frame_offset=None,
                      name=CAMERA_NAME):
     """A camera keyed from a camera track. The track's world is tied to `reference`, a splat

@@ -11,7 +11,7 @@ from bpy_extras.io_utils import ImportHelper
 
 from ...core.camtrack import read_track
 from ...core.errors import SplatFormatError
-from ..data.capture_camera import add_track_camera
+from ..data.capture_camera import add_track_camera, set_frame_rate
 from ..data.pointcloud import is_splat_object
 from ..registration import classes_and_menus
 
@@ -53,8 +53,7 @@ class IMPORT_SCENE_OT_splatline_camera_track(bpy.types.Operator, ImportHelper):
             scene.camera = previous
         if self.set_scene_range:
             scene.frame_start, scene.frame_end = self.start_frame, self.start_frame + track.last_frame
-            scene.render.fps = max(1, round(track.frame_rate))
-            scene.render.fps_base = scene.render.fps / track.frame_rate
+            set_frame_rate(scene, track.frame_rate)
         self.report({"INFO"}, f"{camera.name}: {len(track.keys)} keys from {track.shape}")
         return {"FINISHED"}
 

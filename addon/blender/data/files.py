@@ -22,7 +22,6 @@ SOURCE_PROP = "splatline_source"
 AXES_PROP = "splatline_axes"
 AXES_ITEMS = ("AUTO",) + AXES
 BAD_POLICIES = ("fix", "drop", "error")
-WRITE_AXES = formats.WRITE_AXES  # the convention each writable format uses (one table, in core)
 
 
 def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad="fix", max_splats=None):
@@ -157,4 +156,10 @@ def export_object(obj, path, evaluated=False, depsgraph=None, axes=None) -> None
     splats = object_splats(obj, evaluated, depsgraph, axes)
     if splats.count == 0:
         raise SplatFormatError(path, f"object {obj.name!r} holds no splats to export")
+    write_in_format_axes(path, fmt, splats)
+
+
+def write_in_format_axes(path, fmt: str, splats) -> None:
+    """Write splats as `fmt`, re-expressed in that format's axis convention (its row in the
+    format table) from the one they carry."""
     formats.write(path, reframe(splats, formats.table.row(fmt).axes), fmt)

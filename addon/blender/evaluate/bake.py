@@ -13,8 +13,7 @@ import bpy
 from ...core import formats
 from ...core.fold_look import baked_splats
 from ...core.errors import SplatFormatError
-from ...core.reframe import reframe
-from ..data.files import WRITE_AXES, object_axes
+from ..data.files import object_axes, write_in_format_axes
 from .items import collect_items
 
 
@@ -37,7 +36,7 @@ def export_evaluated(obj, depsgraph, path, axes=None) -> None:
     splats.axes = object_axes(obj, axes)  # axes: the data's frame where the object can't say
     if splats.count == 0:
         raise SplatFormatError(path, f"object {obj.name!r} has no splats at this frame")
-    formats.write(path, reframe(splats, WRITE_AXES[fmt]), fmt)
+    write_in_format_axes(path, fmt, splats)
 
 
 def bake_paths(directory, frame_start, frame_end, prefix="frame_", digits=4, ext=".ply"):

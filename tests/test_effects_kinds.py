@@ -135,6 +135,24 @@ def test_a_clashing_description_is_refused_in_one_line():
     assert "TEST_BOB" not in KINDS
 
 
+def test_a_preset_asks_for_a_second_object_from_the_kinds_target_field():
+    """Presets and `import --effect-preset` ask for a second object when an effect has a
+    SPLATS field, whatever its type or the field's name, not when the type is MORPH."""
+    from addon.core import effect_presets
+
+    pull = replace(BOB, id="TEST_PULL", number=91, params=type("Pull", (Bob,), {}),
+                   fields=(Field("pull_toward", "SPLATS", "Toward", derived=True),))
+    registry.add(pull)
+    try:
+        preset = effect_presets.parse("pull", {"effects": [{"type": "TEST_PULL"}]})
+        assert preset.effects[0].target_field == "pull_toward"
+        assert preset.needs_target
+    finally:
+        registry.remove(pull.id)
+    assert not effect_presets.parse("bob", {"effects": [{"type": "TWIST"}]}).needs_target
+    assert effect_presets.parse("morph", {"effects": [{"type": "MORPH"}]}).needs_target
+
+
 # -- every registered kind: its flags match what its kernel does -------------------------
 def _variants(kind):
     """The kind's defaults, then each other item of each of its enum fields."""

@@ -107,7 +107,7 @@ def _apply_effect_presets(bpy, names, objects) -> None:
             preset = effect_presets.load(find_preset(name, "effects", ".json"))
         except (KeyError, effect_presets.PresetError) as exc:
             raise UsageError(f"--effect-preset: {exc.args[0]}") from None
-        morphs = any(block.type == "MORPH" for block in preset.effects)
+        morphs = preset.needs_target
         if morphs and len(objects) != 2:
             raise UsageError(f"--effect-preset {name}: morphs the first file into the second, "
                             f"so it needs exactly two files ({len(objects)} given)")

@@ -24,6 +24,8 @@ import operator
 import pathlib
 from dataclasses import dataclass, field
 
+from .effects import registry
+
 INTERPOLATIONS = ("CONSTANT", "LINEAR", "BEZIER")
 NAMES = ("zmin", "zmax", "zlow", "zhigh", "radius", "size", "frame")
 
@@ -40,6 +42,12 @@ class Block:
     interpolation: str = "BEZIER"
     type: str | None = None  # effect type; None for the look block
 
+    @property
+    def target_field(self) -> str | None:
+        """The field of this effect that takes a second splat object (None: none, or the look)."""
+        kind = registry.KINDS.get(self.type)
+        return kind.target_field if kind is not None else None
+
 
 @dataclass
 class EffectPreset:
@@ -48,6 +56,11 @@ class EffectPreset:
     description: str
     look: Block | None
     effects: list[Block]
+
+    @property
+    def needs_target(self) -> bool:
+        """Whether applying it asks for a second splat object (a morph's target)."""
+        return any(block.target_field for block in self.effects)
 
 
 def load(path) -> EffectPreset:

@@ -19,11 +19,12 @@ USER_SUBDIR = "presets/splatline/effects"
 def apply_preset(obj, preset: core.EffectPreset, frame: float, target=None) -> list:
     """Append the preset's effects to obj's stack and key them relative to frame.
 
-    Returns the new effect items. A MORPH effect takes `target` (another splat object).
+    Returns the new effect items. An effect with a target field (a morph) takes `target`
+    (another splat object).
     All or nothing: every problem raises core.PresetError naming the preset, before obj
     changes (the preset is first applied to a scratch object, see _rehearse).
     """
-    if any(block.type == "MORPH" for block in preset.effects) and target is None:
+    if preset.needs_target and target is None:
         raise core.PresetError(f"{_name(preset)}: morphs, so select a second splat object "
                                "as the target")
     context = core.bounds_context(read_positions(obj.data), frame, _field(obj))
@@ -80,8 +81,8 @@ def _apply_all(obj, preset, frame, target, context) -> list:
         index = len(obj.splatline.effects) - 1
         with _where(f"effects[{index}].type"):
             effect.type = block.type
-        if block.type == "MORPH":
-            effect.target = target
+        if block.target_field:
+            setattr(effect, block.target_field, target)
         _apply_block(obj, effect, f"splatline.effects[{index}]", block, frame, context)
         added.append(effect)
     obj.splatline.active_effect = len(obj.splatline.effects) - 1

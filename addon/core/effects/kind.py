@@ -58,6 +58,12 @@ class EffectKind:
     derive: Callable | None = None  # (field values by name, fps) -> further params
     opaque: tuple = ()          # params identified by their source's key, not by value
 
+    @property
+    def target_field(self) -> str | None:
+        """The name of the field that takes another splat object (a morph's target), or
+        None: presets and the command line ask for a second object only then."""
+        return next((f.name for f in self.fields if f.type == "SPLATS"), None)
+
     def make(self, values: dict, fps: float, **common):
         """The kernel's params from field values (by field name) and the common ones
         (enabled, amount, frame)."""

@@ -14,7 +14,7 @@ LD = np.longdouble
 
 # INRIA diff-gaussian-rasterization forward.cu, written out here and not imported from
 # addon.core.sh, so the oracle checks the renderer's SH instead of sharing its code
-# (tests/test_sh_oracle.py checks these against the closed forms sqrt((2l+1)/4pi ...)).
+# (tests/core/test_sh_oracle.py checks these against the closed forms sqrt((2l+1)/4pi ...)).
 SH_C0 = 0.28209479177387814
 SH_C1 = 0.4886025119029199
 SH_C2 = (1.0925484305920792, -1.0925484305920792, 0.31539156525252005, -1.0925484305920792,

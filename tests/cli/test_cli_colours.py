@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 from testing.engine_paths_scene import reference_frame
 from testing.engine_scene import read_image
 from testing.viewport_scene import psnr

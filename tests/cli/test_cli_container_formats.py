@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from addon.core.formats import detect_format, read
-from test_cli_formats import cli
-from webp_support import needs_straight_webp
+from testing.cli_runs import cli
+from testing.webp_support import needs_straight_webp
 
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 

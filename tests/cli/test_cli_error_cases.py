@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 from testing.engine_scene import add_camera, add_splats, exr_colour_formats, flat_splats, setup_render
-from test_one_line_errors import cli, one_line
-from webp_support import STRAIGHT_WEBP
+from testing.measured_cli import cli, one_line
+from testing.webp_support import STRAIGHT_WEBP
 
 # test64 holds SH degree 3 in every format; SOG reads only where WebP alpha stays straight
 IMPORT_FORMATS = ("test64.ply", "test64.glb", "test64.compressed.ply", "test64.spz") + \

@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -12,14 +10,9 @@ from addon.core.errors import SplatFormatError
 from addon.core.formats import read
 from addon.core.formats.ply import write_ply
 from testing.synth import random_splats
-from conftest import ROOT
+from testing.cli_runs import cli
 
 READABLE = ["guitar.ply", "guitar.compressed.ply", "guitar.splat", "guitar.spz", "guitar_v3.spz"]
-
-
-def cli(*args):
-    return subprocess.run([sys.executable, "-m", "addon", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=120)
 
 
 @pytest.mark.parametrize("name", READABLE + ["test64.compressed.ply"])

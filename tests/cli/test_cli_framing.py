@@ -14,9 +14,9 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 from testing.engine_scene import read_image
-from test_one_line_errors import cli as measured_cli, one_line
+from testing.measured_cli import cli as measured_cli, one_line
 
 from addon.core import framing
 

@@ -7,8 +7,8 @@ import sys
 
 import numpy as np
 
-from conftest import ROOT
-from native_scene import value_field
+from testing.paths import REPO as ROOT
+from testing.native_scene import value_field
 
 
 def _cli(*args):

@@ -13,7 +13,7 @@ from testing.engine_scene import add_camera, add_splats, flat_splats, setup_rend
 
 from addon.core import procedural
 from addon.core.formats import write
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 
 
 def _cli(*args, timeout=180, env=None):

@@ -14,8 +14,8 @@ import pytest
 
 from addon.blender.data.presets import find_preset
 from addon.core import effect_presets as core
-from capture_scenes import item_at, own_item, world_positions
-from conftest import ROOT
+from testing.capture_scenes import item_at, own_item, world_positions
+from testing.paths import REPO as ROOT
 
 PRESETS = ("sweep_reveal", "dissolve_out_noise", "fade_in", "glitch_displace", "explode")
 

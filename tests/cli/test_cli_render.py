@@ -3,35 +3,20 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from testing.engine_scene import guitar_scene, read_exr_parts, read_image
-from interrupt import interrupt_after
+from testing.interrupt import interrupt_after
+from testing.cli_runs import render_all as _run_all, render_command as _cli
+from testing.paths import REPO
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def _cli(*args):
-    return [sys.executable, "-m", "addon", "render", *map(str, args)]
+ROOT = str(REPO)
 
 
 def _run(*args, timeout=120):
     return subprocess.run(_cli(*args), cwd=ROOT, capture_output=True, text=True, timeout=timeout)
-
-
-def _run_all(commands, timeout=180):
-    """Run CLI commands two at a time (the test machines have two cores)."""
-    results = []
-    for i in range(0, len(commands), 2):
-        procs = [subprocess.Popen(_cli(*c), cwd=ROOT, stdout=subprocess.PIPE,
-                                  stderr=subprocess.PIPE, text=True) for c in commands[i:i + 2]]
-        results += [(p.wait(timeout), *p.communicate()) for p in procs]
-    for rc, out, err in results:
-        assert rc == 0, out + err
-    return results
 
 
 @pytest.fixture

@@ -2,14 +2,14 @@
 frame in progress, every finished frame stays whole and the script gets control back."""
 from __future__ import annotations
 
-import os
 import sys
 import textwrap
 
 from testing.engine_scene import guitar_scene, read_image
-from interrupt import interrupt_after
+from testing.interrupt import interrupt_after
+from testing.paths import REPO
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = str(REPO)
 
 SCRIPT = textwrap.dedent("""
     import sys

@@ -10,10 +10,11 @@ import sys
 import textwrap
 import time
 
-from interrupt import wait_for_marker
-from test_atomic_frames import png_whole
+from testing.interrupt import wait_for_marker
+from testing.png_check import png_whole
+from testing.paths import REPO
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = str(REPO)
 
 RENDER_CHILD = textwrap.dedent("""
     import os, sys, time

@@ -17,12 +17,12 @@ import time
 
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
+from addon.core.formats import read, write
+from testing.interrupt import wait_for_marker
+from testing.paths import REPO
+from testing.synth import random_splats
 
-from addon.core.formats import read, write  # noqa: E402
-from interrupt import wait_for_marker  # noqa: E402
-from testing.synth import random_splats  # noqa: E402
+ROOT = str(REPO)
 
 OUTPUTS = ["a.ply", "a.splat", "a.spz", "a.compressed.ply", "a.glb", "a.gltf", "a.sog", "meta.json"]
 

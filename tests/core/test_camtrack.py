@@ -18,23 +18,7 @@ from addon.core import camtrack, framing
 from addon.core.axes import matrix_for
 from addon.core.camera import camera_from_params, rigid_inverse
 from addon.core.errors import SplatFormatError
-
-W, H = 320, 180
-
-
-def playcanvas_pixel(point_pc, eye, target, up, fov_deg, fit):
-    """Pixel of a PlayCanvas-world point, as PlayCanvas (fit AUTO: fov on the larger side) or
-    splat-transform (VERTICAL) draws it."""
-    eye, target, up, p = (np.asarray(v, float) for v in (eye, target, up, point_pc))
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    right = np.cross(forward, up)
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    d = p - eye
-    x, y, z = d @ right, d @ down, d @ forward
-    span = W if (fit == "AUTO" and W > H) else H
-    f = span / 2 / math.tan(math.radians(fov_deg) / 2)
-    return np.array([W / 2 + f * x / z, H / 2 + f * y / z])
+from testing.playcanvas_camera import H, SETTINGS, W, playcanvas_pixel
 
 
 def blender_pixel(point_world, matrix, fov_deg, fit):
@@ -51,11 +35,6 @@ def _write(tmp_path, data, name="track.json"):
     return path
 
 
-SETTINGS = {"version": 2, "animTracks": [{
-    "name": "cameraAnim", "duration": 2, "frameRate": 24, "loopMode": "repeat",
-    "interpolation": "spline", "smoothness": 1,
-    "keyframes": {"times": [0, 24], "values": {
-        "position": [1, 2, 6, -5, 1, 1], "target": [0, 1.5, 0, 0, 1, 0], "fov": [50, 35]}}}]}
 DOCUMENT = {"camera": {"fov": 60}, "timeline": {"frames": 90, "frameRate": 30},
             "poseSets": [{"name": "set0", "poses": [
                 {"name": "a", "frame": 0, "position": [0, 1, 5], "target": [0, 1, 0], "fov": 45},

@@ -13,7 +13,7 @@ from addon.core.camera import look_at, simple_camera
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer
-from gl_scenes import psnr, random_splats
+from testing.gl_scenes import psnr, random_splats
 
 W, H = 96, 72
 FOCUS = 6.0
@@ -151,7 +151,7 @@ def test_dof_needs_a_perspective_camera():
 @pytest.mark.parametrize("compute", [None, False])
 @pytest.mark.parametrize("aa", [False, True])
 def test_gl_matches_reference_with_dof(compute, aa):
-    """Bar as tests/test_gl_render.py (60 dB): float32 vs float64 of the same formulas."""
+    """Bar as tests/gl/test_gl_render.py (60 dB): float32 vs float64 of the same formulas."""
     item = RenderItem(random_splats(1500, 2, seed=4, spread=2.0))
     cam = dataclasses.replace(simple_camera(120, 90, 50, look_at((0, -7, 1), (0, 0, 0))),
                               defocus=dof.Defocus(0.1, 5.0))

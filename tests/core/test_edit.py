@@ -12,8 +12,9 @@ from addon.core import edit
 from addon.core.formats import read
 from addon.core.select import importance
 from addon.core.sh import sh_basis
+from testing.paths import REPO
 
-ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+ROOT = REPO
 
 
 def _rot(q):

@@ -2,7 +2,7 @@
 seam and the poles, in the reference and the offscreen GL renderer.
 
 Blender's mapping itself (which way is left, where the seam is) is checked against a
-Cycles render in tests/test_camera_features_bpy.py."""
+Cycles render in tests/blender/render/test_camera_features_bpy.py."""
 from __future__ import annotations
 
 import math
@@ -16,7 +16,7 @@ from addon.core.preprocess import project
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer
-from gl_scenes import psnr, random_splats
+from testing.gl_scenes import psnr, random_splats
 
 W, H = 128, 64
 
@@ -128,7 +128,7 @@ def _render(kind, items, camera, options=RenderOptions()):
 @pytest.mark.parametrize("aa", [False, True])
 def test_gl_matches_reference_on_an_equirect_frame(kind, aa):
     """A 2000-splat degree-2 cloud around the camera, some splats across the seam and
-    near the poles. Bar 60 dB as tests/test_gl_render.py; measured 93-132 dB (the
+    near the poles. Bar 60 dB as tests/gl/test_gl_render.py; measured 93-132 dB (the
     compute path's float32 atan is the larger part)."""
     item = RenderItem(random_splats(2000, 2, seed=1, spread=3.0))
     camera = equirect_camera(look_at((0.3, 0.2, 0.1), (0.0, -1.0, 0.0)), 256, 128)

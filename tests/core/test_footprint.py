@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from addon.core.scene import RenderItem, RenderOptions
-from footprint_scenes import (PATHS, camera, contour_pixels, gl, gl33, gpu_ready,  # noqa: F401
+from testing.footprint_scenes import (PATHS, camera, contour_pixels, gl, gl33, gpu_ready,  # noqa: F401
                              render_rgba, ring_pixels, splats)
 
 NEAR_CONTOUR = 1e-3  # relative margin of m2 to the contour that float32 may flip

@@ -14,7 +14,7 @@ from addon.core.dof import Defocus
 from addon.core.holdout import Holdout, combine_alpha, combine_depth, holdout_depth
 from addon.core.preprocess import project
 from addon.core.scene import RenderItem, RenderOptions
-from gl_scenes import framing_camera, random_splats, world_for
+from testing.gl_scenes import framing_camera, random_splats, world_for
 from testing.holdout_scenes import guitar_scene, quad_mesh, triangulate
 
 FULL = RenderOptions(early_termination=False)

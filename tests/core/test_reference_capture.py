@@ -1,5 +1,5 @@
 """The reference renderer on real captures against the independent oracle
-(tests/reference_oracle.py), which composites every splat: the reference runs without
+(testing/reference_oracle.py), which composites every splat: the reference runs without
 early termination here (its default stops at T < 1e-4). Tolerance 1e-6: the output is
 float32 (step 6e-8 below 1); both sides compute in float64 or better."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ from addon.core.axes import matrix_for
 from addon.core.camera import camera_from_params, look_at, simple_camera
 from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
-from reference_oracle import render_oracle
+from testing.reference_oracle import render_oracle
 
 TOL = 1e-6
 FULL = RenderOptions(early_termination=False)

@@ -9,7 +9,7 @@ from addon.core.colorspace import premultiplied_srgb_to_linear, srgb_to_linear
 from testing.synth import random_splats
 from addon.core.reframe import map_into
 from addon.core.sh import sh_to_rgb
-from reference_oracle import quat_matrix
+from testing.reference_oracle import quat_matrix
 
 
 def _turn(axis, degrees) -> np.ndarray:

@@ -25,9 +25,9 @@ from addon.core.holdout import Holdout
 from addon.core.renderer import CAPABILITIES, Renderer
 from addon.core.scene import RenderItem, RenderOptions
 from addon.gl import OffscreenRenderer, composite
-from gl_scenes import random_splats, world_for
+from testing.gl_scenes import random_splats, world_for
+from testing.paths import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[1]
 SHADERS = REPO / "shaders"
 SHADER_SUFFIXES = {".glsl", ".comp", ".vert", ".frag"}
 _OPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,

@@ -1,14 +1,14 @@
 """SH degrees 2 and 3 checked against values computed independently of addon.core.sh:
 explicit polynomials with constants from their closed forms (not copied from INRIA's
 table), orthonormality on the sphere, and the oracle's own term-by-term INRIA code
-(tests/reference_oracle.py), on a few directions."""
+(testing/reference_oracle.py), on a few directions."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from addon.core.sh import sh_basis, sh_to_rgb
-from reference_oracle import SH_C2, SH_C3, sh_rgb
+from testing.reference_oracle import SH_C2, SH_C3, sh_rgb
 
 PI = np.pi
 DIRS = np.array([(0, 0, 1), (1, 0, 0), (0, -1, 0), (1, 2, 3), (-0.3, 0.8, -0.5), (2, -1, 0.25)], float)

@@ -2,7 +2,7 @@
 
 Every case checks that no pixel is NaN/Inf, alpha stays in [0, 1] and colours
 are >= 0 (`sane`). Where the case is well defined, the image is compared with
-an independent oracle (tests/reference_oracle.py: Sigma' = J W Sigma W^T J^T,
+an independent oracle (testing/reference_oracle.py: Sigma' = J W Sigma W^T J^T,
 det = ac - b^2 in exact rational arithmetic, pixels in long double), within
 TOL = 1e-6: the output is float32 (step 6e-8 below 1) and the float64 maths
 loses far less, even for the stiff covariances.
@@ -17,7 +17,7 @@ from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sh import C0
 from addon.core.splats import SplatSet
-from reference_oracle import splat_alpha
+from testing.reference_oracle import splat_alpha
 
 TOL = 1e-6
 

@@ -16,7 +16,7 @@ import pytest
 
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sort import back_to_front, depth_keys, far_to_near
-from footprint_scenes import PATHS, camera, gl, gl33, gpu_ready, render_rgba, splats  # noqa: F401
+from testing.footprint_scenes import PATHS, camera, gl, gl33, gpu_ready, render_rgba, splats  # noqa: F401
 
 RED, GREEN = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
 OPTIONS = [RenderOptions(), RenderOptions(key_bits=16), RenderOptions(gpu_sort=False)]

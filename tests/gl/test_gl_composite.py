@@ -21,7 +21,7 @@ from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer, composite, frame
 from addon.gl.software import is_software
-from gl_scenes import assert_depth_matches, framing_camera, psnr
+from testing.gl_scenes import assert_depth_matches, framing_camera, psnr
 
 MIN_PSNR = 60.0
 C0 = 0.28209479177387814

@@ -30,7 +30,7 @@ from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer
 from addon.gl.composite import depth_encoding, held_band
 from addon.gl.holdout import depth_bounds
-from gl_scenes import assert_depth_matches, psnr
+from testing.gl_scenes import assert_depth_matches, psnr
 from testing.holdout_scenes import guitar_scene, quad_mesh, triangulate
 
 MIN_PSNR = 45.0

@@ -47,7 +47,7 @@ from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer
 from addon.gl.fallback import cpu_records
 from addon.gl.uniforms import depth_origin
-from gl_scenes import framing_camera, world_for
+from testing.gl_scenes import framing_camera, world_for
 
 EPS = float(np.finfo(np.float32).eps)
 K = 64.0

@@ -11,7 +11,7 @@ from addon.core import reference
 from addon.core.camera import Camera, look_at, simple_camera
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
-from gl_scenes import psnr, random_splats
+from testing.gl_scenes import psnr, random_splats
 
 MIN_PSNR = 60.0
 EYE = look_at((0.0, -5.0, 0.0), (0.0, 0.0, 0.0))  # looks along +y

@@ -13,7 +13,7 @@ from addon.core.camera import equirect_camera, look_at, simple_camera
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import shaders
-from gl_scenes import psnr
+from testing.gl_scenes import psnr
 
 EPS = np.finfo(np.float32).eps
 PROBE = """

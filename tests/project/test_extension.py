@@ -9,7 +9,7 @@ import zipfile
 
 import pytest
 
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 
 INSTALL_AND_RENDER = r"""
 import importlib.machinery, site, sys

@@ -1,4 +1,4 @@
-"""The GPU backend a run asks for (SPLATLINE_GPU_BACKEND, tests/conftest.py) is the one
+"""The GPU backend a run asks for (SPLATLINE_GPU_BACKEND, testing/gpu_backend.py) is the one
 Blender's gpu module runs on, and every test file that draws through the gpu module is
 marked to run again on each further backend (the Makefile's GPU_BACKENDS).
 
@@ -11,9 +11,8 @@ import pathlib
 import re
 
 import pytest
-from conftest import GPU_BACKEND, GPU_MODULE_TESTS
-
-TESTS = pathlib.Path(__file__).resolve().parent
+from testing.gpu_backend import GPU_BACKEND, GPU_MODULE_TESTS
+from testing.paths import TESTS
 
 # What reaches Blender's gpu module from a test file: the headless start (ensure_gpu, or the
 # footprint scenes' gpu_ready fixture), the viewport's offscreen draws, the engine's
@@ -40,9 +39,10 @@ def test_blender_gpu_runs_on_the_backend_asked_for(_bpy_registered):
 
 
 def test_every_test_file_that_uses_the_gpu_module_is_marked():
-    uses = {p.name for p in TESTS.glob("test_*.py")
-            if p.name != pathlib.Path(__file__).name and _GPU_USE.search(p.read_text())}
+    here = pathlib.Path(__file__).resolve()
+    uses = {p.relative_to(TESTS).as_posix() for p in TESTS.rglob("test_*.py")
+            if p != here and _GPU_USE.search(p.read_text())}
     missing = sorted(uses - GPU_MODULE_TESTS)
-    assert not missing, f"add to GPU_MODULE_TESTS in tests/conftest.py: {missing}"
+    assert not missing, f"add to GPU_MODULE_TESTS in testing/gpu_backend.py: {missing}"
     gone = sorted(n for n in GPU_MODULE_TESTS if not (TESTS / n).is_file())
-    assert not gone, f"GPU_MODULE_TESTS in tests/conftest.py names missing files: {gone}"
+    assert not gone, f"GPU_MODULE_TESTS in testing/gpu_backend.py names missing files: {gone}"

@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import ast
 import pathlib
+from testing.paths import REPO
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = REPO
 ADDON = ROOT / "addon"
 
 

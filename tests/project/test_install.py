@@ -20,7 +20,7 @@ import sysconfig
 
 import pytest
 
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 
 GUITAR_SPLATS = 90854
 # Not copied: version control, venvs, caches and what builds leave behind.

@@ -1,7 +1,7 @@
 """Every command in README.md is run by a test (issue 27).
 
 The README's `sh` blocks are read line by line. `python -m addon ...` and `splatline ...`
-lines are run here as `python -m addon` (the same command line; tests/test_install.py runs
+lines are run here as `python -m addon` (the same command line; tests/project/test_install.py runs
 the pip-installed `splatline` itself), in README order, on the real captures under the file names the README
 uses (renders at a tiny size and two frames); the `python` block (the bpy snippet) is run on
 a .blend that `import` made. Every other command (`make`, `pip`, `blender`) must be listed in
@@ -27,7 +27,7 @@ import sys
 
 import pytest
 
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 
 README = ROOT / "README.md"
 CLI_DOC = ROOT / "docs" / "cli.md"
@@ -44,36 +44,36 @@ FILES = {
 
 # Commands this file does not run: (test that runs it, or "Makefile:TARGET", why).
 COVERED = {
-    "make demo": ("tests/test_demo.py::test_prints_paths_and_time_per_frame",
+    "make demo": ("tests/blender/demo/test_demo.py::test_prints_paths_and_time_per_frame",
                   "builds a venv first; its recipe, `python -m addon demo`, runs in test_demo"),
     "make test": ("Makefile:test", "runs this suite"),
     "make test BLENDER=4.5": ("Makefile:test", "this suite under another Blender: CI's .ci/run"),
     "make test-matrix": ("Makefile:test-matrix", "this suite under every Blender: CI's .ci/run"),
-    "make extension": ("tests/test_extension.py::test_one_zip_per_platform",
+    "make extension": ("tests/project/test_extension.py::test_one_zip_per_platform",
                        "its recipe, .ci/build_extension.sh, builds the zips test_extension checks"),
     "blender --command extension install-file -r user_default --enable "
     "dist/splatline-0.1.0-linux_x64.zip": (
-        "tests/test_extension.py::test_install_enable_import_render",
+        "tests/project/test_extension.py::test_install_enable_import_render",
         "no Blender binary here: the test installs the zip through the same extension API in bpy"),
-    "pip install .": ("tests/test_install.py::test_info_and_convert_without_bpy",
+    "pip install .": ("tests/project/test_install.py::test_info_and_convert_without_bpy",
                       "installs into a fresh venv, offline"),
-    "pip install .[blender]": ("tests/test_install.py::test_import_and_render_with_bpy",
+    "pip install .[blender]": ("tests/project/test_install.py::test_import_and_render_with_bpy",
                                "offline: the test installs with --no-deps and adds this venv's bpy"),
     "blender -b scene.blend -E SPLATLINE -a": (
-        "tests/test_mesh_layer_frames.py::test_cli_and_opened_blend_render_the_meshes",
+        "tests/blender/render/test_mesh_layer_frames.py::test_cli_and_opened_blend_render_the_meshes",
         "no Blender binary here: the test opens a .blend and renders its range as `blender -b -a`"),
     "blender -b scene.blend -E SPLATLINE -s 1 -e 48 -a": (
-        "tests/test_cli_render.py::test_split_frame_ranges_give_identical_files",
+        "tests/cli/test_cli_render.py::test_split_frame_ranges_give_identical_files",
         "no Blender binary here: chunks of a range render the same files as the whole range"),
     "blender -b scene.blend -E SPLATLINE -o //frames/f_#### -f 57": (
-        "tests/test_mesh_layer_frames.py::test_frame_alone_equals_frame_in_range",
+        "tests/blender/render/test_mesh_layer_frames.py::test_frame_alone_equals_frame_in_range",
         "no Blender binary here: a frame rendered alone equals the same frame of a range"),
 }
 # Inline mentions that are not block commands: (test or Makefile target, why).
 INLINE = {
-    "make demo FILE=capture.ply": ("tests/test_demo.py::test_file_replaces_the_knot",
+    "make demo FILE=capture.ply": ("tests/blender/demo/test_demo.py::test_file_replaces_the_knot",
                                    "the recipe's `demo --file`"),
-    "pipx install .": ("tests/test_install.py::test_info_and_convert_without_bpy",
+    "pipx install .": ("tests/project/test_install.py::test_info_and_convert_without_bpy",
                        "pipx runs the same install into a venv of its own"),
     "pip install bpy==5.2.3": ("Makefile:test", "the pinned bpy of make test BLENDER=5.2"),
 }
@@ -229,7 +229,7 @@ def test_readme_cli_commands_with_bpy(workdir):
     assert commands
     for words in commands:
         args = _cli_args(words)
-        assert args[0] != "demo", "demo is `make demo`'s (tests/test_demo.py), not run here"
+        assert args[0] != "demo", "demo is `make demo`'s (tests/blender/demo/test_demo.py), not run here"
         if args[0] == "render":
             args = [args[0], *_tiny(args[1:])]
         _check(args, _run(args, workdir), workdir)

@@ -2,7 +2,7 @@
 every supported Blender): reading, interpolation and removal of keys and drivers."""
 from __future__ import annotations
 
-from animation_scene import add_object, grid_splats
+from testing.animation_scene import add_object, grid_splats
 
 
 def _keyed_object(bpy):

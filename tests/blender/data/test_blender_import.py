@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from addon.core import formats
-from native_scene import value_field
+from testing.native_scene import value_field
 from addon.core.select import importance
 
 SH_NAMES = [f"radiance:sh_{k}" for k in range(15)]

@@ -8,7 +8,7 @@ import struct
 import pytest
 
 from addon.core.errors import SplatFormatError
-from native_scene import value_field
+from testing.native_scene import value_field
 
 _HEADER = ("ply\nformat binary_little_endian 1.0\nelement vertex {n}\n"
            + "".join(f"property float {p}\n" for p in

@@ -10,9 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 from testing.engine_scene import read_image
-from test_camtrack import SETTINGS, playcanvas_pixel
+from testing.playcanvas_camera import SETTINGS, playcanvas_pixel
 
 from addon.core import formats
 from addon.core.camtrack import PLY_TO_PLAYCANVAS

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from addon.core import formats
-from conftest import ROOT
-from format_steps import assert_sog_within_steps, assert_spz_within_steps, sog_meta
-from webp_support import needs_straight_webp
+from testing.paths import REPO as ROOT
+from testing.format_steps import assert_sog_within_steps, assert_spz_within_steps, sog_meta
+from testing.webp_support import needs_straight_webp
 
 pytestmark = pytest.mark.usefixtures("bpy_empty")
 

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from native_scene import native_object
+from testing.native_scene import native_object
 from testing.viewport_scene import blob, camera_for
 
 
@@ -174,7 +174,7 @@ def test_file_handler_is_one_named_choice_beside_blenders_own(bpy_empty):
 
 
 def test_import_operator_warns_about_a_degree4_file(bpy_empty, tmp_path, capfd):
-    from test_formats_degree4 import _degree4, _write_ply4
+    from testing.degree4 import degree4_splats as _degree4, write_ply4 as _write_ply4
 
     bpy = bpy_empty
     s, band4 = _degree4(4)

@@ -14,7 +14,7 @@ from addon.blender.data import effect_presets
 from addon.blender.data.presets import find_preset
 from addon.core import effect_presets as core
 from addon.core.sh import sh_to_rgb
-from capture_scenes import TRANSFORMS, item_at, own_item, place, world_positions
+from testing.capture_scenes import TRANSFORMS, item_at, own_item, place, world_positions
 
 AT = 5
 CAPTURES = ("guitar.ply", "test64.ply")

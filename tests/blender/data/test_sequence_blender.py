@@ -13,20 +13,10 @@ import pytest
 from addon.core import sequence as core_sequence
 from addon.core.formats import read, write
 from testing.synth import random_splats
+from testing.sequence_files import write_frames
 
 N_FRAMES = 5
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
-
-
-def write_frames(directory, count=N_FRAMES, n=40, degree=1, first=1):
-    """Frames that differ everywhere (each frame its own random set) as frame_NNNN.ply."""
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for i in range(count):
-        path = directory / f"frame_{first + i:04d}.ply"
-        write(path, random_splats(n, degree=degree, seed=100 + i))
-        paths.append(path)
-    return paths
 
 
 def item_of(bpy, obj, frame):

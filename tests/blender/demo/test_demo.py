@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from addon.core.colorspace import linear_to_srgb
-from conftest import ROOT
+from testing.paths import REPO as ROOT
 from testing.engine_scene import read_exr_parts, read_image
 
 FRAMES, WIDTH, HEIGHT, SPLATS = 6, 96, 54, 20000

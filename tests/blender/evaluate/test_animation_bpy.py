@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import pytest
 
-from animation_scene import add_object, grid_splats, items_at, snapshot
+from testing.animation_scene import add_object, grid_splats, items_at, snapshot
 
 # (base settings, [(property, A, B), ...]): each group starts from its own base so that
 # every property visibly matters on the 4x4x4 grid in [-1, 1]^3.

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from animation_scene import add_object, grid_splats, items_at, snapshot
+from testing.animation_scene import add_object, grid_splats, items_at, snapshot
+from testing.paths import REPO
 
 FRAME = 57
 
@@ -124,7 +125,7 @@ def test_farm_split_frame_57_alone_in_another_process_matches(bpy_empty, tmp_pat
     bpy.context.scene.frame_set(12)  # the saved current frame must not matter
     blend = tmp_path / "farm.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    root = str(__import__("pathlib").Path(__file__).resolve().parents[1])
+    root = str(REPO)
     for out, frames in (("alone", "57"), ("range", "55-58")):
         done = subprocess.run([sys.executable, "-m", "addon", "render", str(blend), "--out",
                                str(tmp_path / out), "--frames", frames, "--format", "EXR"],

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from animation_scene import add_object, grid_splats, items_at
+from testing.animation_scene import add_object, grid_splats, items_at
 from testing.viewport_scene import overlay_drawn
 
 

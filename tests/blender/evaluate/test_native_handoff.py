@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from test_effects_capture import _add as _effect  # an effect through the real operator
+from testing.effect_ops import add_effect as _effect  # an effect through the real operator
 
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 
@@ -195,7 +195,7 @@ def test_blender_renders_a_sequence_and_a_hidden_morph_target(native_bpy, tmp_pa
     """A sequence's frames come from files, not its own data; a morph target whose Look >
     Show is off must not be drawn by Blender either."""
     from addon.blender.data import evaluated_geometry as geometry
-    from test_sequence_blender import write_frames
+    from testing.sequence_files import write_frames
 
     bpy = native_bpy
     write_frames(tmp_path / "seq", count=3, n=50)

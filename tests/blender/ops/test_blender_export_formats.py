@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from addon.core import formats
-from webp_support import needs_straight_webp
+from testing.webp_support import needs_straight_webp
 
 CASES = [("PLY", "o.ply", "ply"), ("COMPRESSED_PLY", "o.compressed.ply", "compressed_ply"),
          ("SPLAT", "o.splat", "splat"), ("SPZ", "o.spz", "spz"), pytest.param("SOG", "o.sog", "sog", marks=needs_straight_webp),

@@ -8,7 +8,7 @@ import pytest
 
 from addon.blender.data.pointcloud import value_key
 from addon.core import formats
-from webp_support import needs_straight_webp
+from testing.webp_support import needs_straight_webp
 
 
 @needs_straight_webp

@@ -10,7 +10,7 @@ import pytest
 
 from addon.core import reference
 from testing.engine_scene import add_camera, add_splats, read_exr_parts, set_output, setup_render
-from gl_scenes import psnr
+from testing.gl_scenes import psnr
 
 PANO_POINTS = [(3.0, 1.0, 0.5), (-2.0, -2.0, 1.5), (0.5, 0.1, 4.0), (1.0, 3.0, -1.0)]
 
@@ -123,7 +123,7 @@ def test_depth_of_field_read_from_the_camera(bpy_empty):
 
 
 def _cloud(bpy):
-    from gl_scenes import random_splats
+    from testing.gl_scenes import random_splats
 
     s = random_splats(1500, 2, seed=5, spread=1.5)
     return add_splats(bpy, "cloud", s)
@@ -155,7 +155,7 @@ def test_engine_renders_the_feature_as_the_reference(bpy_empty, tmp_path, featur
 
 def test_command_line_renders_a_panorama_with_dof_off_and_motion_blur(bpy_empty, tmp_path):
     """`python -m addon render` reads the same camera: an equirect .blend renders headless."""
-    from test_cli_render import _run_all
+    from testing.cli_runs import render_all as _run_all
 
     bpy = bpy_empty
     _cloud(bpy)

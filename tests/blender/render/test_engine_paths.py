@@ -14,7 +14,6 @@ more than 15 dB.
 """
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import textwrap
@@ -26,6 +25,7 @@ from addon.blender.render.world import world_background
 from addon.blender.render.film import BACKGROUND_DEPTH
 from testing.engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
 from testing.viewport_scene import psnr
+from testing.paths import REPO
 
 MIN_PSNR = 60.0
 
@@ -83,7 +83,7 @@ def test_forced_moderngl_fails_instead_of_falling_back(bpy_empty, testdata, tmp_
 def test_auto_falls_back_when_moderngl_is_not_installed(testdata, tmp_path):
     """A fresh process where `import moderngl` fails (a meta-path blocker), as on a
     platform without the wheel: Auto renders through Blender's gpu module."""
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = str(REPO)
     script = textwrap.dedent(f"""
         import sys
         class Block:

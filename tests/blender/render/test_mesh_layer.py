@@ -211,7 +211,7 @@ def test_render_panel_shows_the_mesh_settings(guitar):
     from types import SimpleNamespace
 
     from addon.blender.ui import render_panel
-    from test_ui_access import RecordingLayout, _check_names_exist
+    from testing.ui_layout import RecordingLayout, check_names_exist as _check_names_exist
 
     bpy, scene, *_ = guitar
     layout = RecordingLayout()
@@ -249,7 +249,7 @@ def test_world_is_drawn_behind_meshes_and_splats(guitar, tmp_path):
 def test_cli_render_of_the_scene_matches_the_reference(guitar, tmp_path):
     """`python -m addon render SCENE.blend`: the same splat layer (>= 45 dB against the
     reference with the holdout) and the same final frame as bpy.ops.render.render."""
-    from test_mesh_layer_frames import _cli, _run_all
+    from testing.cli_runs import render_command as _cli, run_all as _run_all
 
     bpy, scene, hs, _objects, parts = guitar
     blend = tmp_path / "scene.blend"

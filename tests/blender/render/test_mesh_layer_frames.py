@@ -11,7 +11,6 @@ each other, and from the same frames with Meshes set to Ignored.
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import textwrap
 
@@ -20,8 +19,10 @@ import pytest
 
 from testing.engine_scene import read_exr_parts, read_image, set_output
 from testing.mesh_layer_scene import build
+from testing.cli_runs import render_command as _cli, run_all as _run_all
+from testing.paths import REPO
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = str(REPO)
 W, H = 64, 48
 COUNT = 6000
 FRAMES = (1, 2, 3)
@@ -103,22 +104,6 @@ def test_frame_alone_equals_frame_in_range(bpy_empty, testdata, tmp_path):
 
 
 # ---- the command line and a .blend opened headless ----
-
-def _cli(*args):
-    return [sys.executable, "-m", "addon", "render", *map(str, args)]
-
-
-def _run_all(commands, timeout=300):
-    """Run commands two at a time (the test machines have two cores)."""
-    results = []
-    for i in range(0, len(commands), 2):
-        procs = [subprocess.Popen(c, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                  text=True) for c in commands[i:i + 2]]
-        results += [(p.wait(timeout), *p.communicate()) for p in procs]
-    for rc, out, err in results:
-        assert rc == 0, out + err
-    return results
-
 
 # `blender -b scene.blend -a`: the add-on is enabled before the file loads, then the
 # scene's own range is rendered to its own output (RE_RenderAnim, as render(animation=True)).

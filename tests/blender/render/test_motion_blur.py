@@ -11,7 +11,7 @@ import pytest
 from addon.core import reference, shutter
 from testing.engine_scene import add_camera, add_splats, flat_splats, read_exr_parts, set_output, setup_render
 from testing.engine_scene import guitar_scene
-from test_cli_render import _run_all
+from testing.cli_runs import render_all as _run_all
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from testing.engine_scene import add_splats, flat_splats
-from test_ui_access import RecordingLayout, _check_names_exist
+from testing.ui_layout import RecordingLayout, check_names_exist as _check_names_exist
 
 
 def _labels(record):

@@ -13,58 +13,13 @@ from types import SimpleNamespace
 import numpy as np
 
 from testing.engine_scene import add_splats, flat_splats
-
-
-class RecordingLayout:
-    """Stands in for bpy.types.UILayout: sub-layouts share one record."""
-
-    def __init__(self, record=None):
-        self.record = record if record is not None else []
-        self.use_property_split = self.use_property_decorate = False
-
-    def _sub(self, *_args, **_kwargs):
-        return RecordingLayout(self.record)
-
-    row = column = box = _sub
-
-    def separator(self, *_args, **_kwargs):
-        pass
-
-    def label(self, text="", icon="NONE", **_kwargs):
-        self.record.append(("label", text, icon))
-
-    def prop(self, data, name, icon="NONE", **_kwargs):
-        self.record.append(("prop", (data, name), icon))
-
-    def operator(self, idname, icon="NONE", **_kwargs):
-        self.record.append(("operator", idname, icon))
-        return SimpleNamespace()  # operator properties set by the panel land here
-
-    def operator_menu_enum(self, idname, prop, icon="NONE", **_kwargs):
-        self.record.append(("operator", idname, icon))
-
-    def menu(self, idname, icon="NONE", **_kwargs):
-        self.record.append(("menu", idname, icon))
+from testing.ui_layout import RecordingLayout, check_names_exist as _check_names_exist
 
 
 def _draw(panel_cls, obj):
     layout = RecordingLayout()
     panel_cls.draw(SimpleNamespace(layout=layout), SimpleNamespace(active_object=obj))
     return layout.record
-
-
-def _check_names_exist(bpy, record):
-    icons = bpy.types.UILayout.bl_rna.functions["prop"].parameters["icon"].enum_items.keys()
-    for kind, what, icon in record:
-        assert icon in icons, icon
-        if kind == "prop":
-            data, name = what
-            assert name in data.bl_rna.properties, (data, name)
-        elif kind == "operator":
-            module, name = what.split(".")
-            getattr(getattr(bpy.ops, module), name).get_rna_type()  # raises when unknown
-        elif kind == "menu":
-            assert hasattr(bpy.types, what), what
 
 
 def _props(record):

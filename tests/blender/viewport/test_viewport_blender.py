@@ -276,7 +276,7 @@ def test_colour_and_opacity_animation_keeps_the_sort(bpy_empty, gpu_ready):
     but not the centres: the viewport re-uploads data and keeps its order. Displace moves
     the centres, and re-sorts."""
     from addon.blender.viewport import ViewportRenderer
-    from animation_scene import add_object, grid_splats, items_at
+    from testing.animation_scene import add_object, grid_splats, items_at
 
     bpy = bpy_empty
     obj = add_object("capture", grid_splats(n_side=6))
@@ -309,7 +309,7 @@ def test_growing_splats_resort_only_when_the_order_culled_by_radius(gpu_ready):
     """The kept order is valid for new radii unless the frustum test dropped splats: a
     splat that grows may then reach the view."""
     from addon.blender.viewport import ViewportRenderer
-    from animation_scene import grid_splats
+    from testing.animation_scene import grid_splats
 
     splats = grid_splats(n_side=6)
     base = RenderItem(splats, key=("a", 0), positions_key=("a", 0))
@@ -330,7 +330,7 @@ def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
     a splat object without effects still reuses its data on a transform-only move."""
     from addon.blender import viewport
     from addon.blender.evaluate.items import item_for
-    from animation_scene import add_object, grid_splats
+    from testing.animation_scene import add_object, grid_splats
 
     bpy = bpy_empty
     obj = overlay_drawn(add_object("cap", grid_splats(n_side=5)))

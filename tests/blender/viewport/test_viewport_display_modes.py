@@ -27,7 +27,7 @@ import pytest
 from addon.core.formats import read
 from addon.core.preprocess import project
 from addon.core.scene import RenderItem
-from gl_scenes import framing_camera, world_for
+from testing.gl_scenes import framing_camera, world_for
 from testing.viewport_scene import draw_offscreen
 
 W, H = 160, 120

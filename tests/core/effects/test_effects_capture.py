@@ -17,7 +17,6 @@ from __future__ import annotations
 import ast
 import json
 import math
-import pathlib
 
 import numpy as np
 import pytest
@@ -26,26 +25,17 @@ from addon.blender.data.files import import_file
 from addon.core.effects.noise import field as noise_field
 from addon.core.preprocess import quat_to_matrix
 from addon.core.sh import C0, sh_to_rgb
-from capture_scenes import item_at, place
+from testing.capture_scenes import item_at, place
+from testing.effect_ops import add_effect as _add
+from testing.paths import REPO, TESTS
 
 CAPTURES = ("guitar.ply", "test64.ply")
 TRANSFORMS = ("imported", "parented")
-HERE = pathlib.Path(__file__).resolve().parent
 
 
 # -- the scene ----------------------------------------------------------------------------
 
 
-
-
-def _add(bpy, obj, kind, **props):
-    bpy.context.view_layer.objects.active = obj
-    with bpy.context.temp_override(object=obj):
-        assert bpy.ops.splatline.effect_add(type=kind) == {"FINISHED"}
-    effect = obj.splatline.effects[-1]
-    for name, value in props.items():
-        setattr(effect, name, value)
-    return effect
 
 
 class Scene:
@@ -313,14 +303,14 @@ def test_every_effect_and_variant_has_a_real_capture_check(_bpy_registered):
 
 
 def test_every_bundled_preset_has_a_real_capture_test():
-    names = {p.stem for p in (HERE.parent / "presets" / "effects").glob("*.json")}
+    names = {p.stem for p in (REPO / "presets" / "effects").glob("*.json")}
     assert names and set(PRESET_TESTS) == names, f"presets without one: {names - set(PRESET_TESTS)}"
-    tree = ast.parse((HERE / "test_presets_capture.py").read_text())
+    tree = ast.parse((TESTS / "blender" / "data" / "test_presets_capture.py").read_text())
     tests = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
     consts = {t.id: ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
               for t in n.targets if isinstance(t, ast.Name) and isinstance(n.value, ast.Tuple)}
     assert set(consts["CAPTURES"]) == set(CAPTURES)
-    source = (HERE / "test_presets_capture.py").read_text()
+    source = (TESTS / "blender" / "data" / "test_presets_capture.py").read_text()
     for preset, test in PRESET_TESTS.items():
         assert test in tests, f"{preset}: {test} is gone from test_presets_capture.py"
         body = ast.get_source_segment(source, tests[test])
@@ -328,9 +318,9 @@ def test_every_bundled_preset_has_a_real_capture_test():
         params = [ast.get_source_segment(source, d) for d in tests[test].decorator_list]
         if preset != "morph":  # morph: guitar into test64, both captures by construction
             assert any("CAPTURES" in p for p in params), f"{test} is not run on both captures"
-        json.loads((HERE.parent / "presets" / "effects" / f"{preset}.json").read_text())
+        json.loads((REPO / "presets" / "effects" / f"{preset}.json").read_text())
     # and through the command line (the must-show), morph with two files
-    cli = ast.parse((HERE / "test_cli_presets_capture.py").read_text())
+    cli = ast.parse((TESTS / "cli" / "test_cli_presets_capture.py").read_text())
     cli_presets = {ast.literal_eval(n.value) for n in cli.body if isinstance(n, ast.Assign)
                    for t in n.targets if getattr(t, "id", "") == "PRESETS"}
     (listed,) = cli_presets

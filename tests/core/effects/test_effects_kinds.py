@@ -11,8 +11,8 @@ import pytest
 
 from addon.core.effects import EffectParams, KINDS, registry
 from addon.core.effects.kind import EffectKind, Field
-from capture_scenes import item_at, own_item, place
-from test_effects_capture import _add  # an effect through the real operator
+from testing.capture_scenes import item_at, own_item, place
+from testing.effect_ops import add_effect as _add  # an effect through the real operator
 from testing.viewport_scene import camera_for, draw_offscreen, overlay_drawn, psnr
 
 ARRAYS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")

@@ -18,17 +18,15 @@ import zlib
 import numpy as np
 import zstandard
 
-from _spz_encode import encode
+from testing.spz_encode import encode
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read
 from testing.synth import write_ply_variant
+from testing.reader_checks import FUZZ_BUDGET as BUDGET, check_promises
 
 CASES_PER_SEED = 500
 SPECIAL = np.array([np.nan, np.inf, -np.inf, 0.0, -0.0, 1e-30, 3e38, -3e38, -1.0, 1e-45, 1e-23, 100.0,
                     -200.0], np.float32).view(np.uint32).tolist() + [0xFFFFFFFF, 0x80000000]
-BUDGET = 200_000  # every seed holds 64 splats: a mutated count past this is refused cheaply
-
-
 def _seeds(testdata, tmp_path_factory) -> dict:
     """name -> (extension, bytes): the real files plus variants no testdata file covers."""
     seeds = {name.replace("test64.", "").replace(".", "_"): (name.split(".", 1)[1], (testdata / name).read_bytes())
@@ -125,15 +123,6 @@ def mutate(rng, data: bytes, ext: str) -> bytes:
     [_flip_bits, _special_floats, _random_bytes, _special_floats, _special_floats, _flip_bits][kind](
         rng, out, lo if kind in (1, 3) or rng.random() < 0.7 else 0)
     return bytes(out)
-
-
-def check_promises(s) -> None:
-    for name in ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"):
-        assert np.isfinite(getattr(s, name)).all(), f"non-finite {name}"
-    norm = np.linalg.norm(s.rotations.astype(np.float64), axis=1)
-    assert (np.abs(norm - 1.0) < 1e-6).all(), f"|q| {norm[np.abs(norm - 1) >= 1e-6][:3]}"
-    assert (s.scales > 0).all(), "non-positive scale"
-    assert ((s.opacities >= 0) & (s.opacities <= 1)).all(), "opacity outside 0..1"
 
 
 def _one(path, data: bytes, bad: str) -> str | None:

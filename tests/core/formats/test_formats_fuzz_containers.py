@@ -8,7 +8,7 @@ declaring huge sizes, or replaced by a deflate bomb, unbundled SOGs with images 
 turned into folders, .glb BIN chunks cut short with the lengths kept consistent, and raw bit
 flips, special floats and truncations; and issue 26's: zips flagged encrypted, NUL bytes in
 SOG file names and glTF URIs (a glTF whose primitives reuse one accessor set is measured in
-tests/test_one_line_errors.py instead: under the default budget it may legitimately decode
+tests/cli/test_one_line_errors.py instead: under the default budget it may legitimately decode
 more than this file's allocation cap). Each input is read with bad="fix" (every 4th
 "drop") and must either keep the reader promises (finite values, unit quaternions, scales
 > 0, opacity in 0..1) or raise SplatFormatError naming the file. Other exceptions are bugs,
@@ -40,8 +40,8 @@ import pytest
 
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read, write
-from test_formats_fuzz import BUDGET, check_promises
-from webp_support import needs_straight_webp
+from testing.reader_checks import FUZZ_BUDGET as BUDGET, check_promises
+from testing.webp_support import needs_straight_webp
 
 CASES = {"sog_zip": 900, "sog_unbundled": 400, "glb": 1200, "gltf": 400,
          "sog_encrypted": 150, "sog_nul_name": 60}  # the last two: issue 26
@@ -341,7 +341,7 @@ FIGURES = {"max_case_s": 0.0, "max_traced": 0}
 
 def outcome(path, bad: str) -> str:
     """'read' or 'refused' when the reader kept its promises, else what went wrong. An
-    unbundled SOG's errors name its folder and the image at fault (tests/test_formats_sog.py)."""
+    unbundled SOG's errors name its folder and the image at fault (tests/core/formats/test_formats_sog.py)."""
     named = str(path.parent if path.name == "meta.json" else path)
     tracemalloc.reset_peak()
     try:

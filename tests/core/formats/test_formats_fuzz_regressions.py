@@ -13,7 +13,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from _spz_encode import encode
+from testing.spz_encode import encode
 from addon.core import budget
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read, read_with_report, write
@@ -21,10 +21,11 @@ from addon.core.formats.ply import write_ply
 from addon.core.formats.splat import RECORD
 from testing.synth import random_splats
 from addon.core.splats import SplatSet
-from test_bad_input_formats import fails
-from webp_support import STRAIGHT_WEBP
+from testing.reader_checks import fails
+from testing.webp_support import STRAIGHT_WEBP
+from testing.paths import REPO
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = str(REPO)
 
 
 

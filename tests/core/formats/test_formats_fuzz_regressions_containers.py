@@ -1,4 +1,4 @@
-"""Issue 13, what fuzzing the SOG and glTF readers found (tests/test_formats_fuzz_sog_gltf.py):
+"""Issue 13, what fuzzing the SOG and glTF readers found (tests/core/formats/test_formats_fuzz_containers.py):
 one test per defect, each built from the real testdata files and failing on the code before
 its fix (see the commit messages)."""
 from __future__ import annotations
@@ -12,8 +12,8 @@ import zipfile
 import numpy as np
 
 from addon.core.formats import read, write
-from test_bad_input_formats import fails
-from webp_support import needs_straight_webp
+from testing.reader_checks import fails
+from testing.webp_support import needs_straight_webp
 
 
 def _members(path) -> dict:

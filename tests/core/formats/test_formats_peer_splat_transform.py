@@ -6,7 +6,7 @@ rounding of the two decoders' arithmetic, far below each format's quantization s
 splat-transform is an outside tool, not a dependency: these tests skip, saying why, unless
 it is on PATH or named by $SPLATLINE_SPLAT_TRANSFORM. Set it up outside the repository:
     mkdir -p ~/st && cd ~/st && npm install @playcanvas/splat-transform@3.7.0
-    SPLATLINE_SPLAT_TRANSFORM=~/st/node_modules/.bin/splat-transform pytest tests/test_formats_peer_splat_transform.py
+    SPLATLINE_SPLAT_TRANSFORM=~/st/node_modules/.bin/splat-transform pytest tests/core/formats/test_formats_peer_splat_transform.py
 
 Two formats need another route, because splat-transform 3.7.0 reads no .glb and writes no
 .splat (its --help lists the formats):
@@ -28,7 +28,7 @@ import pytest
 from addon.core.formats import read, write
 from addon.core.formats.splat import RECORD
 from bench.formats_bench import PEER_ENV, run_splat_transform, splat_transform_command
-from webp_support import STRAIGHT_WEBP
+from testing.webp_support import STRAIGHT_WEBP
 
 PEER = splat_transform_command()
 pytestmark = pytest.mark.skipif(

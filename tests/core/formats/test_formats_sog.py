@@ -14,7 +14,7 @@ from addon.core.errors import SplatFormatError
 from addon.core.formats import detect_format, read
 from addon.core.formats.ply import read_ply
 from addon.core.formats.sog import read_sog
-from webp_support import STRAIGHT_WEBP, needs_straight_webp
+from testing.webp_support import STRAIGHT_WEBP, needs_straight_webp
 
 CASES = [("guitar.sog", "guitar_sog.peer.ply"), ("test64.sog", "test64_sog.peer.ply"),
          ("test64_sog_unbundled/meta.json", "test64_sog.peer.ply")]

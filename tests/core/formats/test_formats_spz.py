@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from _spz_encode import blocks, encode
+from testing.spz_encode import blocks, encode
 from addon.core.formats import read
 from addon.core.formats.spz import _read_v4
 

@@ -18,7 +18,7 @@ from addon.core import formats
 from addon.core.errors import SplatFormatError
 from addon.core.formats import table
 from addon.core.splats import SplatSet
-from webp_support import STRAIGHT_WEBP
+from testing.webp_support import STRAIGHT_WEBP
 
 # Each row's capture in ../shared/testdata; a new row fails test_every_row_has_a_capture
 # until it names one. gltf: the test64.glb capture's own document and buffer, unpacked from

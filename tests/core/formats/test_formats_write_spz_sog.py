@@ -13,8 +13,8 @@ from addon.core.formats.sog_write import palette_size
 from addon.core.formats.spz import _read_v4
 from addon.core.formats.spz_write import encode_spz
 from addon.core.quantize import assign, codebook_1d, kmeans, nearest_1d
-from format_steps import assert_sog_within_steps, assert_spz_within_steps, sog_meta
-from webp_support import needs_straight_webp
+from testing.format_steps import assert_sog_within_steps, assert_spz_within_steps, sog_meta
+from testing.webp_support import needs_straight_webp
 
 CAPTURES = ["guitar", "test64"]
 

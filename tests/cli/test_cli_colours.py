@@ -1,4 +1,4 @@
-"""The command line's scenes show the capture's own colours (issue 27).
+"""The command line's scenes show the capture's own colours.
 
 `render CAPTURE` and `import` build new scenes; Blender's default view transform (AgX)
 would tone-map their frames (guitar.ply: about 6.7/255 off on average, highlights capped

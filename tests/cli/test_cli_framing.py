@@ -1,4 +1,4 @@
-"""Framing a user can steer (issue 27): the bare-capture scenes of `render CAPTURE` and
+"""Framing a user can steer: the bare-capture scenes of `render CAPTURE` and
 `import` fill FILL of the frame's shorter side with the capture's robust bounds in every
 frame of the orbit; --fill, --elevation, --lens/--fov, --fps and --seconds each show in the
 scene or the frames; the views say what they mean; bad values are one line, exit 2.
@@ -47,7 +47,7 @@ def _render_fills(testdata, out, *flags):
 
 def test_orbit_fills_the_shorter_side_in_every_frame(testdata, tmp_path):
     """Every one of the default orbit's 120 frames, rendered: the guitar covers 70-90% of
-    the height. Before, a sphere fit left a compact 500k capture at 45% of it (issue 27)."""
+    the height. Before, a sphere fit left a compact 500k capture at 45% of it."""
     frames, fills = _render_fills(testdata, tmp_path / "orbit")
     assert len(frames) == 120
     print(f"orbit alpha fill of the shorter side: {min(fills):.3f}-{max(fills):.3f}")

@@ -1,4 +1,4 @@
-"""The must-show of issue 11, as a user types it: `python -m addon import
+"""Effect presets from the command line, as a user types them: `python -m addon import
 ../shared/testdata/guitar.ply --effect-preset sweep_reveal` (and every other bundled preset,
 on guitar and on test64) writes a .blend whose preset reaches its stated end state: read
 back through the same evaluation the viewport and F12 use (collect_items), after the

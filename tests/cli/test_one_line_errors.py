@@ -1,4 +1,4 @@
-"""Issue 26: every bad input or option is one clear line (`error: WHAT: WHY`, exit 1 for
+"""Every bad input or option is one clear line (`error: WHAT: WHY`, exit 1 for
 data, 2 for usage) and nothing is allocated past the memory budget (core/budget.py): the
 child's peak RSS is measured under `--max-memory 1.5G` for each hostile file and option."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 26: every CLI render printed Blender's GPU-context probe lines (`EGL Error (0x3009):
+"""Every CLI render used to print Blender's GPU-context probe lines (`EGL Error (0x3009):
 EGL_BAD_MATCH`, Blender asking llvmpipe for GL 4.6 before 4.5). The render drops exactly
 those lines (cli/stderr_filter.py); every other line of stderr, C-level included, passes."""
 from __future__ import annotations

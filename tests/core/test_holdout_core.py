@@ -1,4 +1,4 @@
-"""Meshes hide splats (issue 25, core): holdout_depth against a brute-force ray cast, and
+"""Meshes hide splats (core): holdout_depth against a brute-force ray cast, and
 the reference renderer's per-fragment holdout on random splats and on guitar.ply."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Meshes hide splats in the offscreen GL renderer (issue 25), as the float64 reference
+"""Meshes hide splats in the offscreen GL renderer, as the float64 reference
 does: options.holdout's triangles drawn into a surface depth map (gl/holdout.py), and
 every splat fragment whose centre is not in front of the surface there dropped by the
 depth test (gl/composite.py), on the compute path and the GL 3.3 fallback.

@@ -1,4 +1,4 @@
-"""`pip install .` gives the `splatline` command, which works from any folder (issue 27).
+"""`pip install .` gives the `splatline` command, which works from any folder.
 
 A fresh venv of this Python (no pip, no site-packages of its own) sees this venv's packages,
 all but bpy, through a folder of links named in a .pth file. The package is installed into

@@ -1,4 +1,4 @@
-"""Every command in README.md is run by a test (issue 27).
+"""Every command in README.md is run by a test.
 
 The README's `sh` blocks are read line by line. `python -m addon ...` and `splatline ...`
 lines are run here as `python -m addon` (the same command line; tests/project/test_install.py runs

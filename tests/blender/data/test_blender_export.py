@@ -80,7 +80,7 @@ def test_export_errors(bpy_empty, testdata, tmp_path):
 
     obj = import_file(bpy_empty.context, testdata / "test64.ply")
     with pytest.raises(SplatFormatError, match="cannot write"):
-        export_object(obj, tmp_path / "x.obj")  # .spz became writable (issue 13)
+        export_object(obj, tmp_path / "x.obj")  # .obj: a format with no splat writer
     (tmp_path / "dir.ply").mkdir()
     with pytest.raises(SplatFormatError, match="dir.ply"):
         export_object(obj, tmp_path / "dir.ply")

@@ -167,7 +167,7 @@ def test_nan_and_zero_quaternions_by_policy(bpy_empty, tmp_path):
 
 
 def test_blenders_copy_of_the_splats_is_checked_against_the_budget(bpy_empty, tmp_path):
-    """Issue 26: the memory budget counts what the PointCloud will hold (every attribute as
+    """The memory budget counts what the PointCloud will hold (every attribute as
     float32, pointcloud.blender_bytes) before creating it, on top of the splats reading
     holds. A budget that the reading fits into, with 16 MiB to spare, refuses Blender's
     copy in one line, and nothing is created; without the budget the file imports."""

@@ -1,4 +1,4 @@
-"""Issue 26: the orbit camera's set-up is linear in the frame count (capture_camera.key_poses:
+"""The orbit camera's set-up is linear in the frame count (capture_camera.key_poses:
 keyframe_points.add + foreach_set, not keyframe_insert a frame), with the same keys."""
 from __future__ import annotations
 

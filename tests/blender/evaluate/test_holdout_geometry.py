@@ -1,4 +1,4 @@
-"""What hides splats (issue 25): evaluate/holdout_geometry.py reads the surfaces of the
+"""What hides splats: evaluate/holdout_geometry.py reads the surfaces of the
 depsgraph the engine renders into world-space triangles.
 
 The render's own depsgraph decides visibility (hide_render, excluded collections), so

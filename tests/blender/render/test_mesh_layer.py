@@ -1,4 +1,4 @@
-"""Splats and meshes in one final frame (issue 25), through Blender's own render pipeline.
+"""Splats and meshes in one final frame, through Blender's own render pipeline.
 
 The scene is testing/holdout_scenes.guitar_scene built from real primitives
 (mesh_layer_scene.py): guitar.ply, a cube in front of part of it, one behind, a tilted

@@ -1,4 +1,4 @@
-"""Splats and meshes in one frame (issue 25), frame by frame: an animated mesh through
+"""Splats and meshes in one frame, frame by frame: an animated mesh through
 bpy.ops.render.render(animation=True), `python -m addon render` and a .blend opened as
 `blender -b scene.blend -a` opens it.
 

@@ -1,4 +1,4 @@
-"""The Render tab's one-line hint on how the engines blend splats (issue 24, part 5), drawn
+"""The Render tab's one-line hint on how the engines blend splats, drawn
 through real bpy against test_ui_access's recording layout: on a Blender with native splats
 (5.3) Splatline's panel says it blends as trained and, under the Render Engine selector,
 Blender's own engines say they blend in linear light when the scene holds splats; on one

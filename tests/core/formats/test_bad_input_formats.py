@@ -134,7 +134,7 @@ def test_directory_and_missing_file(tmp_path):
     with pytest.raises(SplatFormatError, match="cannot write"):
         write(tmp_path / "no" / "such" / "dir.ply", random_splats(3, 0))
     with pytest.raises(SplatFormatError, match="cannot write"):
-        write(tmp_path / "out.obj", random_splats(3, 0))  # .spz is writable since issue 13
+        write(tmp_path / "out.obj", random_splats(3, 0))  # .obj: a format with no splat writer
 
 
 def test_unknown_extension(tmp_path):

@@ -4,7 +4,7 @@
 SplatFormatError naming the file; any other exception is a bug. Each case has its own
 generator, default_rng((11, crc32(seed name), case)), so a reported case rebuilds alone.
 3,000 inputs take about 15 s on the 2-core CI machine (no time assertion: the machine is
-shared, and a slow run is not a reader bug). On the code before issue 11's fixes, 160 of
+shared, and a slow run is not a reader bug). On the code before the fixes it led to, 160 of
 them broke a promise (|q| 1.22 from compressed PLY, NaN or zero quaternions, scales <= 0).
 """
 from __future__ import annotations
@@ -36,7 +36,7 @@ def _seeds(testdata, tmp_path_factory) -> dict:
     ascii_path = tmp_path_factory.mktemp("seed") / "ascii.ply"
     write_ply_variant(ascii_path, read(testdata / "test64.ply"), encoding="ascii")
     seeds["ascii_ply"] = ("ply", ascii_path.read_bytes())
-    # issue 26: headers claiming 10M splats over a few bytes (a gzip'd v2 of zeros, as the
+    # headers claiming 10M splats over a few bytes (a gzip'd v2 of zeros, as the
     # 185 KB file that took 2.76 GB; a v4 whose count says 10M over test64's streams)
     head = struct.pack("<4sIIBBBB", b"NGSP", 2, 10_000_000, 0, 12, 0, 0)
     seeds["spz_v2_zeros_claims_10m"] = ("spz", gzip.compress(head + bytes(19 * 64)))

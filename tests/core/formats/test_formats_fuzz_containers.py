@@ -6,7 +6,7 @@ accessors pointing past their buffer, wrong component types, strides, sparse), W
 claiming 16383 x 16383 images, zip members deleted, swapped, stored with an unknown method,
 declaring huge sizes, or replaced by a deflate bomb, unbundled SOGs with images missing or
 turned into folders, .glb BIN chunks cut short with the lengths kept consistent, and raw bit
-flips, special floats and truncations; and issue 26's: zips flagged encrypted, NUL bytes in
+flips, special floats and truncations; zips flagged encrypted, NUL bytes in
 SOG file names and glTF URIs (a glTF whose primitives reuse one accessor set is measured in
 tests/cli/test_one_line_errors.py instead: under the default budget it may legitimately decode
 more than this file's allocation cap). Each input is read with bad="fix" (every 4th
@@ -44,7 +44,7 @@ from testing.reader_checks import FUZZ_BUDGET as BUDGET, check_promises
 from testing.webp_support import needs_straight_webp
 
 CASES = {"sog_zip": 900, "sog_unbundled": 400, "glb": 1200, "gltf": 400,
-         "sog_encrypted": 150, "sog_nul_name": 60}  # the last two: issue 26
+         "sog_encrypted": 150, "sog_nul_name": 60}  # the last two: zipfile errors found later
 MAX_PEAK = 64 << 20
 HANG_S = 30
 HOSTILE = [-1, 0, 1, 2, 3, 4, 63, 65, 255, 256, 257, 4096, 65535, 65536, 1 << 28, 1 << 31, 1 << 32,
@@ -194,7 +194,7 @@ def mutate_sog_zip(rng, seed: bytes, bombs: list) -> bytes:
 
 
 def encrypted_zip(rng, seed: bytes) -> bytes:
-    """Issue 26: the seed with the "encrypted" flag (general-purpose bit 0) set on some
+    """The seed with the "encrypted" flag (general-purpose bit 0) set on some
     members' local and central headers (a RuntimeError from zipfile before), then maybe
     mutated as mutate_sog_zip does."""
     out = bytearray(seed)
@@ -208,7 +208,7 @@ def encrypted_zip(rng, seed: bytes) -> bytes:
 
 
 def nul_name(rng, name: str) -> str:
-    """name with a NUL byte put in (issue 26: ValueError 'embedded null byte' before)."""
+    """name with a NUL byte put in (a ValueError 'embedded null byte' before)."""
     at = int(rng.integers(0, len(name) + 1))
     return name[:at] + "\0" + name[at:]
 

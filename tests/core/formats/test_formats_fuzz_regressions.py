@@ -1,4 +1,4 @@
-"""Issue 11, "Readers: what the fuzzing found": one test per defect, each of which failed
+"""What fuzzing the readers found (test_formats_fuzz.py): one test per defect, each of which failed
 on the code before its fix (see the commit messages)."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 13, what fuzzing the SOG and glTF readers found (tests/core/formats/test_formats_fuzz_containers.py):
+"""What fuzzing the SOG and glTF readers found (test_formats_fuzz_containers.py):
 one test per defect, each built from the real testdata files and failing on the code before
 its fix (see the commit messages)."""
 from __future__ import annotations

@@ -14,8 +14,8 @@ from __future__ import annotations
 import pathlib
 import statistics
 import tempfile
+from testing.paths import SHARED_TESTDATA
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
 RUNS = 7
 PATHS = ("OFFSCREEN", "GPU_MODULE")
 
@@ -34,7 +34,7 @@ def main() -> None:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if not hasattr(bpy.types.Object, "splatline"):
         register()
-    scene = two_object_scene(bpy, ROOT.parent / "shared" / "testdata")
+    scene = two_object_scene(bpy, SHARED_TESTDATA)
     ref = reference_frame(bpy, scene)
     print(f"{'path':<64} {'PSNR dB':>8} {'ms/frame':>9}")
     with tempfile.TemporaryDirectory() as tmp:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import pathlib
 import statistics
 import tempfile
+
 from testing.paths import SHARED_TESTDATA
 
 RUNS = 7

@@ -26,6 +26,7 @@ import statistics
 import sys
 import tempfile
 import time
+
 from testing.paths import SHARED_TESTDATA
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

@@ -8,7 +8,8 @@ import pytest
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read
 
-FUZZ_BUDGET = 200_000  # every fuzz seed holds 64 splats: a mutated count past this is refused cheaply
+# Every fuzz seed holds 64 splats: a mutated count past this is refused cheaply.
+FUZZ_BUDGET = 200_000
 
 
 def fails(path, *words, **opts):

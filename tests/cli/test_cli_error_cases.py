@@ -1,6 +1,6 @@
-"""Command-line errors that once went their own way, one test each: the command line answers a bad option or
-input as every other error (test_one_line_errors.py): one line, exit 2 for usage, 1 for
-data, nothing written; a misspelled option gets its sub-command's usage."""
+"""Command-line errors that once went their own way, one test each: the command line
+answers a bad option or input as every other error (test_one_line_errors.py): one line, exit 2
+for usage, 1 for data, nothing written; a misspelled option gets its sub-command's usage."""
 from __future__ import annotations
 
 import pytest

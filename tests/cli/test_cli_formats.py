@@ -73,7 +73,7 @@ def test_convert_options(testdata, tmp_path):
 @pytest.mark.parametrize("args,word", [
     (("info", "{tmp}/missing.ply"), "no such file"),
     (("info", "{tmp}"), "directory"),
-    (("convert", "{data}/test64.ply", "{tmp}/x.obj"), "cannot write"),  # .obj: a format with no splat writer
+    (("convert", "{data}/test64.ply", "{tmp}/x.obj"), "cannot write"),  # .obj: no splat writer
     (("convert", "{tmp}/trunc.ply", "{tmp}/x.ply"), "truncated"),
 ])
 def test_errors_are_one_line(testdata, tmp_path, args, word):

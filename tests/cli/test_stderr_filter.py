@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+
 from testing.paths import REPO
 
 ROOT = REPO

@@ -9,7 +9,8 @@ import pytest
 from addon.core import reference
 from addon.core.scene import RenderItem, RenderOptions
 from addon.gl import OffscreenRenderer
-from testing.gl_scenes import assert_depth_matches, framing_camera, psnr, random_splats, two_objects, world_for
+from testing.gl_scenes import (assert_depth_matches, framing_camera, psnr, random_splats,
+                                two_objects, world_for)
 
 MIN_PSNR = 60.0  # as test_gl_render.py
 

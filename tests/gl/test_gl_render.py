@@ -24,7 +24,8 @@ from addon.core.scene import RenderItem, RenderOptions
 from addon.core.sort import back_to_front, depth_keys
 from addon.gl import OffscreenRenderer
 from addon.gl.sort import sorts_on_gpu
-from testing.gl_scenes import assert_depth_matches, framing_camera, psnr, random_splats, two_objects, world_for
+from testing.gl_scenes import (assert_depth_matches, framing_camera, psnr, random_splats,
+                                two_objects, world_for)
 
 MIN_PSNR = 60.0
 

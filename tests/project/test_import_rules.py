@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import pathlib
+
 from testing.paths import REPO
 
 ROOT = REPO

@@ -341,7 +341,7 @@ FIGURES = {"max_case_s": 0.0, "max_traced": 0}
 
 def outcome(path, bad: str) -> str:
     """'read' or 'refused' when the reader kept its promises, else what went wrong. An
-    unbundled SOG's errors name its folder and the image at fault (tests/core/formats/test_formats_sog.py)."""
+    unbundled SOG's errors name its folder and the image at fault (test_formats_sog.py)."""
     named = str(path.parent if path.name == "meta.json" else path)
     tracemalloc.reset_peak()
     try:

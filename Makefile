@@ -9,7 +9,7 @@ REQS    := requirements/blender-$(BLENDER).txt
 STAMP   := $(VENV)/.installed
 FILE    ?=
 JOBS    ?= 2
-# Blender GPU backends `make test` covers (tests/conftest.py reads SPLATLINE_GPU_BACKEND): the
+# Blender GPU backends `make test` covers (testing/gpu_backend.py reads SPLATLINE_GPU_BACKEND): the
 # first runs the whole suite, each further one the tests marked gpu_module (viewport drawing,
 # the engine's Blender-GPU path). 5.3 defaults to Vulkan (lavapipe here) and keeps OpenGL;
 # 4.5-5.2 default to OpenGL.

@@ -2,7 +2,7 @@
 # System libraries for headless OpenGL (EGL + Mesa llvmpipe) and Blender's bpy module, and
 # Vulkan (the loader and Mesa's lavapipe): Blender 5.3's default GPU backend is Vulkan, and
 # without a Vulkan driver bpy 5.3 falls back to OpenGL, which would leave its Vulkan path
-# untested (tests/test_gpu_backend.py fails the run then).
+# untested (tests/project/test_gpu_backend.py fails the run then).
 # Installs only what is missing, and only when we are root (CI and fresh machines are).
 set -euo pipefail
 need=()

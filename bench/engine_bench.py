@@ -15,8 +15,8 @@ import pathlib
 import tempfile
 
 from bench.common import median_s
+from testing.paths import SHARED_TESTDATA
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
 REPEATS = 3
 SIZES = ((320, 180), (960, 540))  # llvmpipe takes seconds a frame; add 1920x1080 on a GPU
 
@@ -24,7 +24,7 @@ SIZES = ((320, 180), (960, 540))  # llvmpipe takes seconds a frame; add 1920x108
 def _scene(bpy):
     from testing.engine_scene import guitar_scene
 
-    scene, _, _ = guitar_scene(bpy, ROOT.parent / "shared" / "testdata", [1, 2, 3], 64, 64, count=0)
+    scene, _, _ = guitar_scene(bpy, SHARED_TESTDATA, [1, 2, 3], 64, 64, count=0)
     scene.camera.animation_data_clear()  # every frame the same view, so rows compare
     scene.view_layers[0].use_pass_z = True  # the engine then runs the GL depth pass, as here
     return scene

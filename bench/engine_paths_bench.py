@@ -15,7 +15,8 @@ import pathlib
 import statistics
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+from testing.paths import SHARED_TESTDATA
+
 RUNS = 7
 PATHS = ("OFFSCREEN", "GPU_MODULE")
 
@@ -34,7 +35,7 @@ def main() -> None:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if not hasattr(bpy.types.Object, "splatline"):
         register()
-    scene = two_object_scene(bpy, ROOT.parent / "shared" / "testdata")
+    scene = two_object_scene(bpy, SHARED_TESTDATA)
     ref = reference_frame(bpy, scene)
     print(f"{'path':<64} {'PSNR dB':>8} {'ms/frame':>9}")
     with tempfile.TemporaryDirectory() as tmp:

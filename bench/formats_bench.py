@@ -28,8 +28,9 @@ from addon.core.formats import read, write
 from addon.core.formats.ply import write_ply
 from testing.synth import random_splats
 from bench.common import median_s
+from testing.paths import SHARED_TESTDATA
 
-TESTDATA = pathlib.Path(__file__).resolve().parents[1].parent / "shared" / "testdata"
+TESTDATA = SHARED_TESTDATA
 PEER_ENV = "SPLATLINE_SPLAT_TRANSFORM"
 
 

@@ -27,6 +27,8 @@ import sys
 import tempfile
 import time
 
+from testing.paths import SHARED_TESTDATA
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SIZE = (480, 320)
 RUNS = 3
@@ -36,7 +38,7 @@ PICTURE = ROOT / "docs" / "mesh_layer.png"
 def _scene(bpy):
     from testing.mesh_layer_scene import build
 
-    testdata = ROOT.parent / "shared" / "testdata"
+    testdata = SHARED_TESTDATA
     bpy.ops.wm.read_factory_settings(use_empty=True)
     from addon import register
 

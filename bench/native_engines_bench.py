@@ -44,9 +44,10 @@ import time
 import numpy as np
 
 from bench.common import psnr
+from testing.paths import SHARED_TESTDATA
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-CAPTURE = ROOT.parent / "shared" / "testdata" / "guitar.ply"
+CAPTURE = SHARED_TESTDATA / "guitar.ply"
 SIZE = (180, 320)  # portrait: the guitar stands; on llvmpipe EEVEE and Cycles take seconds a frame
 COVERED = 0.5  # reference alpha at and above which a pixel counts as covered
 EEVEE_SAMPLES = 16

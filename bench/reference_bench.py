@@ -5,7 +5,6 @@ RUNS runs, with the ratio against the first row (measured in the same run).
 """
 from __future__ import annotations
 
-import pathlib
 
 import numpy as np
 
@@ -15,9 +14,10 @@ from addon.core.camera import look_at, simple_camera
 from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
 from bench.common import median_s
+from testing.paths import SHARED_TESTDATA
 
 RUNS = 3
-GUITAR = pathlib.Path(__file__).resolve().parents[2] / "shared" / "testdata" / "guitar.ply"
+GUITAR = SHARED_TESTDATA / "guitar.ply"
 
 
 def _scene():

@@ -17,7 +17,6 @@ orders of magnitude faster, the reference is not.
 """
 from __future__ import annotations
 
-import pathlib
 import time
 
 import numpy as np
@@ -29,9 +28,10 @@ from addon.core.formats import read
 from testing.synth import shell_splats
 from addon.core.scene import RenderItem, RenderOptions
 from bench.common import median_ms, psnr, reaching
+from testing.paths import SHARED_TESTDATA
 
 RUNS = 5
-TESTDATA = pathlib.Path(__file__).resolve().parents[2] / "shared" / "testdata"
+TESTDATA = SHARED_TESTDATA
 GUITAR_SIZE = (320, 480)
 MILLION_SIZE = (256, 256)   # GL timing frame
 MILLION_CROP = (64, 64)     # error frame: the centre crop (reference time is for it)

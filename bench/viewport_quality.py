@@ -10,13 +10,13 @@ generated degree-3 splats (testing/synth.random_splats) around it, 160x120.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from bench.common import psnr
+from testing.paths import SHARED_TESTDATA
 
-TESTDATA = Path(__file__).resolve().parents[1].parent / "shared" / "testdata"
+TESTDATA = SHARED_TESTDATA
 
 
 def _guitar():

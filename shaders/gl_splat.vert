@@ -117,7 +117,7 @@ vec2 footprint_box(vec3 conic, float opacity, vec2 quad_box)
 // rasteriser interpolates it from the corners, "noperspective" (w is 1: linear, and
 // cheaper than "smooth" on llvmpipe). Every quad lies inside the tile, so no triangle
 // reaches the clipper, which in Mesa 22.3's llvmpipe interpolates noperspective outputs
-// wrongly on the triangles it cuts (tests/test_gl_whiten.py)
+// wrongly on the triangles it cuts (tests/gl/test_gl_whiten.py)
 noperspective out vec2 v_w;
 flat out vec4 v_colour;  // rgb, opacity
 flat out float v_depth;  // view depth of the centre (Z pass)

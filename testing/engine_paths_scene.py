@@ -1,6 +1,6 @@
 """One scene rendered through each engine path (bpy.ops.render.render), and the reference.
 
-Used by tests/test_engine_paths.py and bench/engine_paths_bench.py.
+Used by tests/blender/render/test_engine_paths.py and bench/engine_paths_bench.py.
 """
 from __future__ import annotations
 

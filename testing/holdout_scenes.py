@@ -1,4 +1,4 @@
-"""Splats and meshes in one frame (issue 25): the scenes the holdout tests share.
+"""Splats and meshes in one frame: the scenes the holdout tests share.
 
 `guitar_scene` is the real-capture scene every renderer's holdout test uses (core
 reference, the moderngl renderer, the Blender engine): guitar.ply with its RDF axes as

@@ -1,4 +1,4 @@
-"""holdout_scenes.guitar_scene built in Blender with real mesh objects (issue 25).
+"""holdout_scenes.guitar_scene built in Blender with real mesh objects.
 
 guitar.ply imported as the UI imports it (its RDF axes on the object), a camera whose
 projection is the scene's (50 degrees across, clip start/end as the core camera), the two

@@ -3,17 +3,18 @@ from __future__ import annotations
 
 import os
 import pathlib
-import sys
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-TESTDATA = ROOT.parent / "shared" / "testdata"
-sys.path.insert(0, str(ROOT))
+from testing.gpu_backend import GPU_BACKEND, GPU_BACKENDS, GPU_MODULE_TESTS
+from testing.paths import REPO, SHARED_TESTDATA, TESTS
 
-# Blender's GPU backend for this run: SPLATLINE_GPU_BACKEND=VULKAN|OPENGL (the Makefile sets it;
-# unset means Blender's default). tests/test_gpu_backend.py fails the run when Blender starts
-# another one, so a silent fallback never passes for the backend asked for.
+# The repository root is on sys.path through pytest.ini's `pythonpath = .` (so `addon` and
+# `testing` import from any folder under tests/).
+
+# Blender's GPU backend for this run: testing/gpu_backend.GPU_BACKEND. tests/project/
+# test_gpu_backend.py fails the run when Blender starts another one, so a silent fallback
+# never passes for the backend asked for.
 # Choosing it must happen before `import bpy`, and not through the preference: the bpy module
 # starts from factory settings (no userpref.blend, no command line, so no --gpu-backend) and
 # fixes its backend from preferences.system.gpu_backend at import; setting the preference
@@ -21,28 +22,9 @@ sys.path.insert(0, str(ROOT))
 # the preferred backend, then OpenGL, then Vulkan, so OPENGL on 5.3 (whose default is Vulkan)
 # is had by hiding the Vulkan drivers from the Vulkan loader; subprocesses inherit that.
 # VULKAN needs nothing: 5.3's default, given a Vulkan driver (.ci/sysdeps.sh installs lavapipe).
-GPU_BACKENDS = ("VULKAN", "OPENGL")
-GPU_BACKEND = os.environ.get("SPLATLINE_GPU_BACKEND", "").strip().upper() or None
 if GPU_BACKEND == "OPENGL":
     for _var in ("VK_DRIVER_FILES", "VK_ICD_FILENAMES"):  # the loader's name, its older name
-        os.environ[_var] = str(ROOT / "no-vulkan-driver.json")  # no such file: no driver
-
-# Test files that draw through Blender's gpu module (viewport drawing, the engine's
-# Blender-GPU path): marked gpu_module, they run once more on every further backend a
-# Blender version is tested on (the Makefile's GPU_BACKENDS). test_gpu_backend.py checks
-# this list against what the test files use.
-GPU_MODULE_TESTS = frozenset({
-    "test_effects_kinds.py",
-    "test_engine_gpu.py",
-    "test_engine_paths.py",
-    "test_footprint.py",
-    "test_gpu_backend.py",
-    "test_tie_order.py",
-    "test_viewport.py",
-    "test_viewport_blender.py",
-    "test_viewport_display_modes.py",
-    "test_viewport_memory.py",
-})
+        os.environ[_var] = str(REPO / "no-vulkan-driver.json")  # no such file: no driver
 
 
 def pytest_configure(config):
@@ -54,7 +36,7 @@ def pytest_configure(config):
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if item.path.name in GPU_MODULE_TESTS:
+        if item.path.relative_to(TESTS).as_posix() in GPU_MODULE_TESTS:
             item.add_marker(pytest.mark.gpu_module)
 
 
@@ -65,9 +47,9 @@ def pytest_report_header(config):
 @pytest.fixture(scope="session")
 def testdata() -> pathlib.Path:
     """The read-only real captures (never write here)."""
-    if not TESTDATA.is_dir():
-        pytest.fail(f"missing {TESTDATA}: the repo expects ../shared/testdata beside it")
-    return TESTDATA
+    if not SHARED_TESTDATA.is_dir():
+        pytest.fail(f"missing {SHARED_TESTDATA}: the repo expects ../shared/testdata beside it")
+    return SHARED_TESTDATA
 
 
 @pytest.fixture(scope="module")

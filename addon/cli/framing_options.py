@@ -17,7 +17,7 @@ DEFAULT_ORBIT_FRAMES = 120  # five seconds at 24 fps: one slow turn
 MIN_FILL, MAX_FILL = 0.05, 1.0
 MAX_ELEVATION = 89.0  # straight down the up axis the frame would have no "up"
 # Blender's limits (RNA of Camera.lens (hard min; soft max: its slider's), Camera.angle and
-# RenderSettings.fps on 4.5-5.3; tests/test_cli_framing.py checks them against RNA).
+# RenderSettings.fps on 4.5-5.3; tests/cli/test_cli_framing.py checks them against RNA).
 MIN_LENS, MAX_LENS = 1.0, 5000.0
 MIN_FOV, MAX_FOV = 0.367, 172.847
 MIN_FPS, MAX_FPS = 1, 32767

@@ -44,7 +44,7 @@ _BOOL = {"1": True, "true": True, "on": True, "yes": True,
 
 
 # Blender's own limits (RNA hard_min/hard_max of Scene.frame_start/frame_end and
-# RenderSettings.resolution_x/y, the same on 4.5-5.3; tests/test_one_line_errors.py checks
+# RenderSettings.resolution_x/y, the same on 4.5-5.3; tests/cli/test_one_line_errors.py checks
 # them against RNA): a value outside is refused, never clamped.
 MAX_FRAME = framing_options.MAX_FRAME
 MIN_RESOLUTION, MAX_RESOLUTION = 4, 65536

@@ -2,7 +2,7 @@
 core/reference.py), the moderngl renderer (gl/) and the viewport (blender/viewport/).
 
 Where a shader needs one, its GLSL twin is a `const float SL_...` in shaders/ holding the
-same value; tests/test_render_stages.py reads the shader sources and compares each
+same value; tests/core/test_render_stages.py reads the shader sources and compares each
 literal with the value here, so changing one without the other fails.
 """
 from __future__ import annotations

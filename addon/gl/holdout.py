@@ -7,7 +7,7 @@ distance). Each triangle is one instanced quad over its screen box (gl_holdout.v
 the fragment stage casts the pixel-centre ray against it exactly (gl_holdout.frag,
 Moeller-Trumbore in float32, camera-relative) and keeps the nearest hit through MIN
 blending: no depth buffer and no non-linear z, the same rays for all three cameras, so
-the map equals core.holdout.holdout_depth up to float32 rounding (tests/test_gl_holdout.py).
+the map equals core.holdout.holdout_depth up to float32 rounding (tests/gl/test_gl_holdout.py).
 Drawing the triangles themselves instead (GL's coverage, the ray only for the depth)
 was a little faster but left holes: the rasteriser snaps corners to 1/256 pixel, so a
 pixel centre that close to an edge two triangles share may go to the one whose exact

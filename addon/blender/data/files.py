@@ -118,7 +118,7 @@ def object_axes(obj, axes=None) -> str:
     - An object without that property is Blender's own: "RDF", the frame of a 3DGS PLY.
       `wm.ply_import` (5.3, default Forward Y / Up Z, i.e. no turn) stores the file's values
       with an identity transform, so they are written back unchanged: exporting it to .ply
-      gives the file's splats again (tests/test_native_export.py).
+      gives the file's splats again (tests/blender/data/test_native_export.py).
     - `wm.spz_import` (5.3) turns the data to Blender's frame itself (the file read as RUB,
       positions to (x, -z, y), rotations and SH bands turned alike: measured equal to
       core.reframe RUB -> RFU to float32 rounding), so its data is "RFU". Its objects carry

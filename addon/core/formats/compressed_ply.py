@@ -14,7 +14,7 @@ Packing (bits from the most significant end; unorm(v, b) = v / (2^b - 1)):
   sh f_rest_i      uchar v -> (v + 0.5) / 256 * 8 - 4  (v = 0 decodes to -4), channel-major
                    like the INRIA f_rest.
 These were checked against the float PLYs that splat-transform decoded from the same files
-(testdata guitar.ply, test64.ply): see tests/test_formats_captures.py.
+(testdata guitar.ply, test64.ply): see tests/core/formats/test_formats_captures.py.
 """
 from __future__ import annotations
 

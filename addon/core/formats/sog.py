@@ -14,7 +14,7 @@ Per splat i (texel i in row-major order of every image but the SH palette):
   shN_centroids    64 entries a row, K texels an entry (coefficient j at column entry%64*K+j),
                    RGB index `shN.codebook`
 Facts from splat-transform's reader (src/lib/readers/read-sog.ts) and checked against its
-decodes of the same files (testdata *_sog.peer.ply, tests/test_formats_sog.py).
+decodes of the same files (testdata *_sog.peer.ply, tests/core/formats/test_formats_sog.py).
 """
 from __future__ import annotations
 

@@ -22,7 +22,7 @@ values unconverted: positions agree to the 12-bit fixed-point step, quaternions 
 sign, and the odd SH coefficients are not negated (a RDF->RUB turn would negate y, z and
 those). No header field tells the two writers apart, so this reader reports axes = "RDF",
 which makes every format of a capture land identically in Blender
-(tests/test_formats_captures.py); a file from Niantic's own tools (true RUB) is read with
+(tests/core/formats/test_formats_captures.py); a file from Niantic's own tools (true RUB) is read with
 read(path, axes="RUB"), the same axis override the importer offers.
 SH quantization seen in those files: band 1 in steps of 8/128, bands 2-3 in 16/128.
 

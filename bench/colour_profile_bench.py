@@ -89,8 +89,8 @@ def saturation_timeline(items, cam, plan=None) -> list[float]:
     shares = []
     build = composite.Compositor._build_map
 
-    def recording(self, t, w, h):
-        build(self, t, w, h)
+    def recording(self, t, w, h, batch=0):
+        build(self, t, w, h, batch)
         offset, words, rows = t["levels"][0]
         raw = t["flags"].read(size=4 * words * rows, offset=4 * offset)
         bits = np.unpackbits(np.frombuffer(raw, np.uint8), bitorder="little")  # little-endian words

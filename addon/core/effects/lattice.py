@@ -7,10 +7,11 @@ they are computed once (`LATTICES`, keyed like noise.FIELDS without seed and lay
 every later field of those centres (another channel, the next Displace layer, a new seed)
 costs one 32-byte gather and one weighted sum per point.
 
-The weighted sum here is a multiply and a matrix-vector product with ones, which sums the
-8 products in a different order from value_noise's einsum: values agree with it to a few
-float32 ulps (tests/test_effects_fast_paths.py pins them), and value_noise stays the
-readable reference.
+The weighted sum here is an einsum over (N, 8) rows, which numpy sums in a different order
+from value_noise's einsum over (8, N) weights: values agree with it to a few float32 ulps
+(tests/test_effects_fast_paths.py pins them), and value_noise stays the readable
+reference. (Not a matrix product: BLAS threads that spin while waiting for a core cost
+more than they save on a busy machine.)
 """
 from __future__ import annotations
 
@@ -21,10 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .common import F32, local_columns
+from .common import F32, for_blocks, local_columns
 
 BLOCK = 1 << 15      # points per block: a block's gathered corners stay in cache
-_ONES = np.ones(8, F32)
 
 
 @dataclass
@@ -36,15 +36,15 @@ class Lattice:
         """The field of each corner table (noise.corner_table) at these points."""
         n = self.index.shape[0]
         out = [np.empty(n, F32) for _ in tables]
-        corners = np.empty((min(n, BLOCK), 8), F32)
-        for start in range(0, n, BLOCK):
-            part = slice(start, min(n, start + BLOCK))
-            rows = corners[:part.stop - start]
+
+        def block(part):
             index, weights = self.index[part], self.weights[part]
+            rows = np.empty((part.stop - part.start, 8), F32)
             for table, values in zip(tables, out):
                 np.take(table, index, axis=0, out=rows)
-                rows *= weights
-                np.matmul(rows, _ONES, out=values[part])
+                np.einsum("nk,nk->n", rows, weights, out=values[part])
+
+        for_blocks(n, block, BLOCK)
         return out
 
 

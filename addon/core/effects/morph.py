@@ -12,13 +12,15 @@ Position, scale, opacity and SH are blended linearly, rotation by slerp (shortes
 from __future__ import annotations
 
 import threading
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..reframe import map_into
 from ..splats import SplatSet, sh_coeff_count
-from .common import F32, EffectParams, join, split
+from .common import F32, EffectParams, for_blocks, split
 from .kind import EffectKind, Field
 
 
@@ -72,17 +74,28 @@ def _lerp(a: np.ndarray, b: np.ndarray, t: float, rows: int = 8192) -> np.ndarra
     per million degree-3 splats, is most of a morph's bytes)."""
     out = np.empty_like(a)
     scale = F32(t)
-    for start in range(0, a.shape[0], rows):
-        block = out[start:start + rows]
-        np.subtract(b[start:start + rows], a[start:start + rows], out=block)
-        block *= scale
-        block += a[start:start + rows]
+
+    def block(part):
+        np.subtract(b[part], a[part], out=out[part])
+        out[part] *= scale
+        out[part] += a[part]
+
+    for_blocks(a.shape[0], block, rows)
     return out
 
 
-def slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
-    """Shortest-arc slerp of (N, 4) quaternions; nlerp where they nearly coincide
-    (sin(theta) < 1e-5), where slerp's weights lose precision."""
+@dataclass
+class SlerpSetup:
+    """What slerp computes from the two rotation sets alone, not from t."""
+    a: list          # q0's four contiguous columns
+    b: list          # q1's, turned onto q0's hemisphere by `sign` in the weights
+    theta: np.ndarray
+    sin: np.ndarray  # sin(theta), 1 where the pair nearly coincides
+    near: np.ndarray # indices of those pairs (nlerp weights)
+    sign: np.ndarray
+
+
+def slerp_setup(q0: np.ndarray, q1: np.ndarray) -> SlerpSetup:
     a, b = split(q0), split(q1)
     dot = a[0] * b[0]
     for i in range(1, 4):
@@ -94,24 +107,74 @@ def slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
     sin = np.sin(theta)
     near = sin < 1e-5
     sin[near] = 1.0
+    setup = SlerpSetup(a, b, theta, sin, np.flatnonzero(near), sign)
+    for array in (*a, *b, theta, sin, setup.near, sign):
+        array.flags.writeable = False
+    return setup
+
+
+def slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
+    """Shortest-arc slerp of (N, 4) quaternions; nlerp where they nearly coincide
+    (sin(theta) < 1e-5), where slerp's weights lose precision. The parts that do not
+    depend on t are memoized per pair of arrays (SLERPS), so scrubbing a morph between
+    the same two sets computes only the weights and the blend."""
+    setup = SLERPS.get(q0, q1)
+    out = np.empty((q0.shape[0], 4), F32)
+    for_blocks(q0.shape[0], lambda part: _slerp_block(setup, t, part, out))
+    return out
+
+
+def _slerp_block(setup: SlerpSetup, t: float, part: slice, out: np.ndarray) -> None:
+    theta, sin = setup.theta[part], setup.sin[part]
     w0 = np.sin(theta * F32(1.0 - t))
     w0 /= sin
     w1 = np.sin(theta * F32(t))
     w1 /= sin
+    near = setup.near[(setup.near >= part.start) & (setup.near < part.stop)] - part.start
     w0[near] = 1.0 - t
     w1[near] = t
-    w1 *= sign
-    norm = np.zeros_like(dot)
-    for i in range(4):
-        a[i] *= w0
-        a[i] += b[i] * w1
-        norm += a[i] * a[i]
+    w1 *= setup.sign[part]
+    norm = np.zeros_like(w0)
+    a = []
+    for qa, qb in zip(setup.a, setup.b):
+        col = qa[part] * w0
+        col += qb[part] * w1
+        norm += col * col
+        a.append(col)
     np.sqrt(norm, out=norm)
     np.maximum(norm, F32(1e-12), out=norm)
     np.divide(F32(1.0), norm, out=norm)
-    for col in a:
-        col *= norm
-    return join(a)
+    for i, col in enumerate(a):
+        np.multiply(col, norm, out=out[part, i])
+
+
+class SlerpCache:
+    """slerp_setup of pairs of rotation arrays, keyed by the arrays themselves (held
+    weakly). A pure cache: it never changes a result."""
+
+    def __init__(self, size: int = 2):
+        self.size = size
+        self.entries: OrderedDict = OrderedDict()
+        self.lock = threading.Lock()
+
+    def get(self, q0: np.ndarray, q1: np.ndarray) -> SlerpSetup:
+        key = (id(q0), id(q1))
+        with self.lock:
+            hit = self.entries.get(key)
+            if hit is not None and hit[0]() is q0 and hit[1]() is q1:
+                self.entries.move_to_end(key)
+                return hit[2]
+        setup = slerp_setup(q0, q1)
+        with self.lock:
+            for dead in [k for k, (r0, r1, _) in self.entries.items() if r0() is None or r1() is None]:
+                del self.entries[dead]
+            self.entries[key] = (weakref.ref(q0), weakref.ref(q1), setup)
+            while len(self.entries) > self.size:
+                self.entries.popitem(last=False)
+        return setup
+
+
+SLERPS = SlerpCache()
 
 
 def _pad_rest(rest: np.ndarray, k: int) -> np.ndarray:

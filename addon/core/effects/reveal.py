@@ -14,7 +14,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, add_rows, field_blocks, scale_rows, smoothstep01
+from .common import (F32, EffectParams, add_rows, field_values, for_blocks, scale_rows,
+                     smoothstep01)
+from .field_memo import FIELD_VALUES
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
 
@@ -36,11 +38,11 @@ class Reveal(EffectParams):
 
 
 def edge_position(f: np.ndarray, p: Reveal) -> np.ndarray:
-    """s in [0, 1]: 1 well inside the shown side, 0 well outside, 0.5 at the threshold."""
+    """s in [0, 1]: 1 well inside the shown side, 0 well outside, 0.5 at the threshold
+    (a fresh array; f is only read)."""
     if p.width <= 0.0:
         return (f < F32(p.progress)).astype(F32)
-    s = f  # f is a fresh array owned here
-    s -= F32(p.progress)
+    s = f - F32(p.progress)
     s *= F32(-1.0 / p.width)
     s += F32(0.5)
     return np.clip(s, 0.0, 1.0, out=s)
@@ -52,10 +54,19 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if p.shape not in _FIELD:
         raise ValueError(f"Reveal shape {p.shape!r} is not one of {SHAPES}")
     noise = rest_field(splats, rest, p) if p.shape == "NOISE" else None
+    whole = None
+    if noise is None and splats.positions is rest:  # the stack's input: the same every frame
+        whole = FIELD_VALUES.get(splats.positions, p.frame, _FIELD[p.shape])
     opacities = np.empty_like(splats.opacities)
     scales = np.empty_like(splats.scales) if p.shrink > 0.0 else None
     sh_dc = np.empty_like(splats.sh_dc) if p.glow_strength > 0.0 else None
-    for part, f in field_blocks(splats.positions, p.frame, _FIELD[p.shape], noise):
+
+    def block(part):
+        if whole is not None:
+            f = whole[part]
+        else:
+            f = field_values(splats.positions[part], p.frame, _FIELD[p.shape],
+                             None if noise is None else noise[part])
         s = edge_position(f, p)
         if sh_dc is not None:
             glow = s * (F32(1.0) - s)
@@ -73,6 +84,8 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
             hidden *= F32(-p.amount * p.shrink)
             hidden += F32(1.0)
             scales[part] = scale_rows(splats.scales[part], hidden)
+
+    for_blocks(splats.count, block)
     changes = {"opacities": opacities}
     if scales is not None:
         changes["scales"] = scales

@@ -229,12 +229,6 @@ def rotate_quats_about(axis, cos_half: np.ndarray, sin_half: np.ndarray, q) -> n
     return join(out)
 
 
-def field_blocks(positions: np.ndarray, frame: np.ndarray, kind: str, noise=None):
-    """(rows, field_values of those rows), a block of rows at a time."""
-    for part in blocks(len(positions)):
-        yield part, field_values(positions[part], frame, kind, None if noise is None else noise[part])
-
-
 def per_splat_random(n: int, seed: int, salt: int) -> np.ndarray:
     """(3, n) float32 standard normals (three contiguous rows), a pure function of
     (n, seed, salt). Memoized (bounded; the viewport and a render thread may share it)."""

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import F32, EffectParams, blocks
+from .common import F32, EffectParams, for_blocks
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import field_rows
 
@@ -58,12 +58,15 @@ def apply(splats, p: Displace, time: float = 0.0, rest=None):
     # block by block, so the blend's temporaries stay in cache; per value the same float32
     # operations as a whole-array (w0 a + w1 b) * gain + position
     (w0, first), *others = layers
-    for part in blocks(splats.count):
+
+    def block(part):
         c = first[part] * F32(w0)
         for w1, second in others:
             c += second[part] * F32(w1)
         c *= gain
         np.add(splats.positions[part], c, out=positions[part])
+
+    for_blocks(splats.count, block)
     return replace(splats, positions=positions)
 
 

@@ -3,8 +3,9 @@ positions array.
 
 An effect early in the stack reads the base's centres, the same array every frame, and a
 field of them depends only on that array and the field's frame: scrubbing then reuses it
-instead of measuring the centres again (noise fields have their own memo, noise.FIELDS). Keyed by the positions array itself (held
-weakly, so entries of a frame's fresh centres go with them); values are read-only.
+instead of measuring the centres again (noise fields have their own memo, noise.FIELDS).
+Keyed by the positions array itself (held weakly, so entries of a frame's fresh centres
+go with them); values are read-only.
 A pure cache: it never changes a result.
 """
 from __future__ import annotations

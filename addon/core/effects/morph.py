@@ -166,12 +166,17 @@ class SlerpCache:
                 return hit[2]
         setup = slerp_setup(q0, q1)
         with self.lock:
-            for dead in [k for k, (r0, r1, _) in self.entries.items() if r0() is None or r1() is None]:
+            for dead in [k for k, (r0, r1, _) in self.entries.items()
+                         if r0() is None or r1() is None]:
                 del self.entries[dead]
             self.entries[key] = (weakref.ref(q0), weakref.ref(q1), setup)
             while len(self.entries) > self.size:
                 self.entries.popitem(last=False)
         return setup
+
+    def clear(self) -> None:
+        with self.lock:
+            self.entries.clear()
 
 
 SLERPS = SlerpCache()

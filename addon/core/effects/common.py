@@ -133,18 +133,20 @@ THREADS = 2 if (os.cpu_count() or 1) > 1 else 1   # 1: every block on the callin
 _POOL = None
 
 
-def scale_rows(a: np.ndarray, factor: np.ndarray) -> np.ndarray:
-    """a * factor[:, None] for (N, k) a, column by column: numpy broadcasting against a
-    small trailing axis costs ~20x more than the same work on contiguous columns."""
-    out = np.empty_like(a)
+def scale_rows(a: np.ndarray, factor: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """a * factor[:, None] for (N, k) a, column by column (into `out` if given): numpy
+    broadcasting against a small trailing axis costs ~3x more than the same work on columns."""
+    out = np.empty_like(a) if out is None else out
     for i in range(a.shape[1]):
         np.multiply(a[:, i], factor, out=out[:, i])
     return out
 
 
-def add_rows(a: np.ndarray, values, factor: np.ndarray | None = None) -> np.ndarray:
-    """a + factor[:, None] * values[None, :] (values: k constants), column by column."""
-    out = np.empty_like(a)
+def add_rows(a: np.ndarray, values, factor: np.ndarray | None = None,
+             out: np.ndarray | None = None) -> np.ndarray:
+    """a + factor[:, None] * values[None, :] (values: k constants), column by column
+    (into `out` if given)."""
+    out = np.empty_like(a) if out is None else out
     for i in range(a.shape[1]):
         if factor is None:
             np.add(a[:, i], F32(values[i]), out=out[:, i])

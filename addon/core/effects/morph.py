@@ -30,6 +30,7 @@ class Pairing:
     target: np.ndarray
     source_only: np.ndarray   # unpaired source indices (fade out)
     target_only: np.ndarray   # unpaired target indices (fade in)
+    in_order: bool = False    # source and target are every index in order (equal counts)
 
 
 @dataclass
@@ -53,7 +54,7 @@ def pair(source: np.ndarray, target: np.ndarray) -> Pairing:
     empty = np.zeros(0, np.int64)
     if n == m:
         every = np.arange(n)
-        return Pairing(every, every, empty, empty)
+        return Pairing(every, every, empty, empty, in_order=True)
     if n == 0 or m == 0:
         return Pairing(empty, empty, np.arange(n), np.arange(m))
     both = np.concatenate([source, target]).astype(np.float64)
@@ -190,8 +191,11 @@ def _pad_rest(rest: np.ndarray, k: int) -> np.ndarray:
     return out
 
 
-def _take(s: SplatSet, index: np.ndarray) -> SplatSet:
-    """s.subset(index), or s itself when index is every splat in order (no copy)."""
+def _take(s: SplatSet, index: np.ndarray, in_order: bool = False) -> SplatSet:
+    """s.subset(index), or s itself when index is every splat in order (no copy; in_order
+    says so without comparing a million indices every frame)."""
+    if in_order and len(index) == s.count:
+        return s
     if len(index) == s.count and (s.count == 0 or (index[0] == 0 and index[-1] == s.count - 1
                                                      and np.array_equal(index, np.arange(s.count)))):
         return s
@@ -200,7 +204,8 @@ def _take(s: SplatSet, index: np.ndarray) -> SplatSet:
 
 def blend(source: SplatSet, target: SplatSet, pairing: Pairing, t: float) -> SplatSet:
     k = sh_coeff_count(max(source.sh_degree, target.sh_degree))
-    a, b = _take(source, pairing.source), _take(target, pairing.target)
+    a = _take(source, pairing.source, pairing.in_order)
+    b = _take(target, pairing.target, pairing.in_order)
     parts = [SplatSet(
         positions=_lerp(a.positions, b.positions, t), scales=_lerp(a.scales, b.scales, t),
         rotations=slerp(a.rotations, b.rotations, t),

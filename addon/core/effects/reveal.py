@@ -71,7 +71,7 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
         if sh_dc is not None:
             glow = s * (F32(1.0) - s)
             glow *= F32(4.0 * p.amount * p.glow_strength / C0)
-            sh_dc[part] = add_rows(splats.sh_dc[part], p.glow_color, glow)
+            add_rows(splats.sh_dc[part], p.glow_color, glow, out=sh_dc[part])
         hidden = smoothstep01(s)  # visibility, in place
         if not p.invert:
             hidden -= F32(1.0)
@@ -83,7 +83,7 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
         if scales is not None:
             hidden *= F32(-p.amount * p.shrink)
             hidden += F32(1.0)
-            scales[part] = scale_rows(splats.scales[part], hidden)
+            scale_rows(splats.scales[part], hidden, out=scales[part])
 
     for_blocks(splats.count, block)
     changes = {"opacities": opacities}

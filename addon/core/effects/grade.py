@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, field_values, for_blocks, split
+from .common import F32, EffectParams, field_values, for_blocks
 from .field_memo import FIELD_VALUES
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
@@ -90,9 +90,8 @@ def _grade_block(sh_dc: np.ndarray, x: np.ndarray, p: Grade, out: np.ndarray) ->
     x *= F32(1.0 / (p.high - p.low) if p.high != p.low else 1e12)
     np.clip(x, 0.0, 1.0, out=x)
     gain = F32(p.amount / C0)
-    bases = split(sh_dc)  # contiguous columns: each is read twice
     for c, g in enumerate(gradient(x, p.stops)):
-        base = bases[c]
+        base = sh_dc[:, c]
         if p.mode == "ADD":
             delta = g
         else:

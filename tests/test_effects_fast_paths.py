@@ -57,12 +57,19 @@ def gizmo() -> np.ndarray:
 FRAMES = (np.eye(4), gizmo())
 
 
+def assert_bits(a: np.ndarray, b: np.ndarray, what: str = "") -> None:
+    """The same float32 bits (signs of zero and NaNs included)."""
+    assert a.shape == b.shape and a.dtype == b.dtype == np.float32, what
+    np.testing.assert_array_equal(a.view(np.uint32), b.view(np.uint32), err_msg=what)
+
+
 def assert_same(got: SplatSet, want: SplatSet, base: SplatSet) -> None:
-    """Equal values, and the same arrays passed through unchanged (copy-on-write)."""
+    """The same bits (signs of zero and NaNs included), and the same arrays passed through
+    unchanged (copy-on-write)."""
     for f in FIELDS:
         a, b = getattr(got, f), getattr(want, f)
         assert (a is getattr(base, f)) == (b is getattr(base, f)), f"{f}: passed through differs"
-        np.testing.assert_array_equal(a, b, err_msg=f)
+        assert_bits(a, b, f)
 
 
 def varied(main, others):
@@ -74,11 +81,12 @@ def varied(main, others):
 
 
 def reveals():
-    for shape, width, invert, shrink, progress, glow, amount, frame in varied(
+    colours = ((1.0, 0.45, 0.1), (-1.0, -0.5, -0.0), (1.0, -0.2, 0.0))  # +0 / -0 / mixed glow
+    for shape, width, invert, shrink, progress, glow, amount, frame, colour in varied(
             (("PLANE", "SPHERE", "NOISE"), (0.0, 0.05, 0.8), (False, True), (0.0, 0.7)),
-            ((-0.5, 0.0, 0.6), (0.0, 1.5), (0.4, 1.0), FRAMES)):
+            ((-0.5, 0.0, 0.6), (0.0, 1.5), (0.4, 1.0), FRAMES, colours)):
         yield Reveal(shape=shape, progress=progress, width=width, invert=invert, shrink=shrink,
-                     glow_strength=glow, glow_color=(1.0, -0.2, 0.4), amount=amount,
+                     glow_strength=glow, glow_color=colour, amount=amount,
                      frequency=3.0, seed=2, frame=frame)
 
 
@@ -167,15 +175,13 @@ def test_slerp_and_morph_match_the_reference(capture, monkeypatch, threads):
     q1[1000:2000] = -capture.rotations[1000:2000]  # the same, other hemisphere
     SLERPS.clear()
     for t in (0.0, 1e-4, 0.25, 0.5, 0.77, 0.999, 0.25):
-        np.testing.assert_array_equal(slerp(capture.rotations, q1, t),
-                                      ref.slerp(capture.rotations, q1, t))
+        assert_bits(slerp(capture.rotations, q1, t), ref.slerp(capture.rotations, q1, t))
     for amount in (0.1, 0.5, 0.9):
         got = evaluate_stack(capture, [Morph(target=target, amount=amount)], 0.0).splats
-        np.testing.assert_array_equal(got.rotations,
-                                      ref.slerp(capture.rotations, target.rotations, amount))
+        assert_bits(got.rotations, ref.slerp(capture.rotations, target.rotations, amount))
         for f in ("positions", "scales", "opacities", "sh_dc", "sh_rest"):
             a, b = getattr(capture, f), getattr(target, f)
-            np.testing.assert_array_equal(getattr(got, f), a + (b - a) * np.float32(amount))
+            assert_bits(getattr(got, f), a + (b - a) * np.float32(amount))
 
 
 def test_two_threads_give_the_one_thread_splats(capture, monkeypatch):

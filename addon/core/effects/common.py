@@ -156,6 +156,17 @@ def add_rows(a: np.ndarray, values, factor: np.ndarray | None = None,
     return out
 
 
+def put_rows(a: np.ndarray, index: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """a[index] = rows for (N, k) a, returning a: rows moved as single k-item records
+    (a void view), several times faster than numpy's fancy assignment of rows."""
+    if not (a.flags.c_contiguous and rows.flags.c_contiguous and a.dtype == rows.dtype):
+        a[index] = rows
+        return a
+    record = np.dtype((np.void, a.dtype.itemsize * a.shape[1]))
+    np.put(a.view(record).reshape(-1), index, rows.view(record).reshape(-1))
+    return a
+
+
 def unit_columns(cols) -> list[np.ndarray]:
     """Normalize three (N,) components in place (zero vectors stay zero)."""
     length = cols[0] * cols[0]

@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import (F32, EffectParams, add_rows, field_values, for_blocks, scale_rows,
-                     smoothstep01)
+from .common import (F32, EffectParams, add_rows, field_values, for_blocks, put_rows,
+                     scale_rows, smoothstep01)
 from .field_memo import FIELD_VALUES
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
@@ -48,6 +48,30 @@ def edge_position(f: np.ndarray, p: Reveal) -> np.ndarray:
     return np.clip(s, 0.0, 1.0, out=s)
 
 
+def glow_rows(sh_dc: np.ndarray, glow: np.ndarray, colour, out: np.ndarray) -> np.ndarray:
+    """add_rows(sh_dc, colour, glow, out) where glow is +0 off the edge's band (s = 0 or 1):
+    those rows get sh_dc + (+0 * colour), which is sh_dc + 0 (one flat add) when each
+    channel's +0 * colour is +0, sh_dc itself when each is -0; only the band's rows are
+    weighted. Bit for bit add_rows' result; mixed signs or a colour that is not finite
+    take add_rows."""
+    zeros = [F32(0.0) * F32(c) for c in colour[:3]]
+    signs = {bool(np.signbit(z)) for z in zeros}
+    if len(signs) > 1 or not all(np.isfinite(zeros)):
+        return add_rows(sh_dc, colour, glow, out=out)
+    if signs == {True}:
+        np.copyto(out, sh_dc)
+    else:
+        np.add(sh_dc, F32(0.0), out=out)
+    band = np.flatnonzero(glow != F32(0.0))  # nonzero on floats is ~10x slower than on bools
+    if band.size:
+        rows = np.take(sh_dc, band, axis=0)
+        weight = glow[band]
+        for c in range(3):
+            rows[:, c] += weight * F32(colour[c])
+        put_rows(out, band, rows)
+    return out
+
+
 def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if not p.active or splats.count == 0:
         return splats
@@ -71,7 +95,7 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
         if sh_dc is not None:
             glow = s * (F32(1.0) - s)
             glow *= F32(4.0 * p.amount * p.glow_strength / C0)
-            add_rows(splats.sh_dc[part], p.glow_color, glow, out=sh_dc[part])
+            glow_rows(splats.sh_dc[part], glow, p.glow_color, sh_dc[part])
         hidden = smoothstep01(s)  # visibility, in place
         if not p.invert:
             hidden -= F32(1.0)

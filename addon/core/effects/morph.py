@@ -72,16 +72,15 @@ def pair(source: np.ndarray, target: np.ndarray) -> Pairing:
 def _lerp(a: np.ndarray, b: np.ndarray, t: float, rows: int = 8192) -> np.ndarray:
     """a + (b - a) t into one fresh array, a block of rows at a time so the intermediate
     stays in cache: memory traffic is one read of a and b and one write (sh_rest, 180 MB
-    per million degree-3 splats, is most of a morph's bytes)."""
+    per million degree-3 splats, is most of a morph's bytes). On one thread: it is bound
+    by memory bandwidth, and a second thread measured +65% CPU for -10% wall time."""
     out = np.empty_like(a)
     scale = F32(t)
-
-    def block(part):
-        np.subtract(b[part], a[part], out=out[part])
-        out[part] *= scale
-        out[part] += a[part]
-
-    for_blocks(a.shape[0], block, rows)
+    for start in range(0, a.shape[0], rows):
+        block = out[start:start + rows]
+        np.subtract(b[start:start + rows], a[start:start + rows], out=block)
+        block *= scale
+        block += a[start:start + rows]
     return out
 
 

@@ -4,8 +4,8 @@ A noise field at fixed centres is a gather of 8 corner values per point and a we
 with trilinear weights (noise.value_noise). The cell index and the 8 weights depend only
 on the centres, the gizmo frame and the frequency, not on the seed, channel or layer, so
 they are computed once (`LATTICES`, keyed like noise.FIELDS without seed and layer) and
-every later field of those centres (another channel, the next Displace layer, a new seed)
-costs one 32-byte gather and one weighted sum per point.
+every later field of those centres (the next Displace layer, a new seed) costs one gather
+of 32 bytes a channel and one weighted sum per channel and point.
 
 The weighted sum here is an einsum over (N, 8) rows, which numpy sums in a different order
 from value_noise's einsum over (8, N) weights: values agree with it to a few float32 ulps
@@ -32,17 +32,15 @@ class Lattice:
     index: np.ndarray     # (N,) intp: the wrapped cell of each point in the corner tables
     weights: np.ndarray   # (N, 8) float32: trilinear weights, corner k = dx*4 + dy*2 + dz
 
-    def sample(self, tables) -> list[np.ndarray]:
-        """The field of each corner table (noise.corner_table) at these points."""
+    def sample(self, tables: np.ndarray) -> np.ndarray:
+        """(N, C) noise of C channels at these points; tables: (cells, C, 8) float32, each
+        channel's noise.corner_table side by side, so one gather fetches every channel."""
         n = self.index.shape[0]
-        out = [np.empty(n, F32) for _ in tables]
+        out = np.empty((n, tables.shape[1]), F32)
 
         def block(part):
-            index, weights = self.index[part], self.weights[part]
-            rows = np.empty((part.stop - part.start, 8), F32)
-            for table, values in zip(tables, out):
-                np.take(table, index, axis=0, out=rows)
-                np.einsum("nk,nk->n", rows, weights, out=values[part])
+            rows = np.take(tables, self.index[part], axis=0)   # (block, C, 8)
+            np.einsum("nck,nk->nc", rows, self.weights[part], out=out[part])
 
         for_blocks(n, block, BLOCK)
         return out

@@ -119,8 +119,7 @@ class FieldCache:
             if hit is not None and hit[0]() is positions:
                 self.entries.move_to_end(key)
                 return hit[1]
-        columns = evaluate_field(positions, frame, frequency, seed, channels, layer)
-        values = columns[0][:, None] if channels == 1 else np.stack(columns, axis=1)
+        values = evaluate_rows(positions, frame, frequency, seed, channels, layer)
         values.flags.writeable = False
         with self.lock:
             for dead in [k for k, (ref, _) in self.entries.items() if ref() is None]:
@@ -135,11 +134,32 @@ class FieldCache:
             self.entries.clear()
 
 
-def evaluate_field(positions, frame, frequency, seed, channels, layer=0) -> list[np.ndarray]:
-    """Noise at the gizmo-local centres times frequency (no memo of the values; the
-    centres' lattice geometry is memoized in lattice.LATTICES, shared by every layer)."""
+def evaluate_rows(positions, frame, frequency, seed, channels, layer=0) -> np.ndarray:
+    """Noise at the gizmo-local centres times frequency, (N, channels) (no memo of the
+    values; the centres' lattice geometry is memoized in lattice.LATTICES, shared by every
+    layer). The channels' corner tables side by side: one gather per point for all."""
     lattice = LATTICES.get(positions, frame, frequency, PERIOD)
-    return lattice.sample([corner_table(seed, c, layer) for c in range(channels)])
+    return lattice.sample(corner_tables(seed, channels, layer))
+
+
+def corner_tables(seed: int, channels: int, layer: int = 0) -> np.ndarray:
+    """(cells, channels, 8): the channels' corner tables side by side (memoized with them)."""
+    key = (seed, "channels", channels, layer)
+    tables = _TABLES.get(key)
+    if tables is None:
+        tables = np.stack([corner_table(seed, c, layer) for c in range(channels)], axis=1)
+        tables.flags.writeable = False
+        with _LOCK:
+            _TABLES[key] = tables
+            while len(_TABLES) > _MAX_TABLES:
+                _TABLES.popitem(last=False)
+    return tables
+
+
+def evaluate_field(positions, frame, frequency, seed, channels, layer=0) -> list[np.ndarray]:
+    """evaluate_rows as one (N,) array per channel."""
+    rows = evaluate_rows(positions, frame, frequency, seed, channels, layer)
+    return [rows[:, c] for c in range(channels)]
 
 
 def reference_field(positions, frame, frequency, seed, channels, layer=0) -> list[np.ndarray]:

@@ -210,3 +210,30 @@ def test_memos_follow_the_positions_array(capture):
     got = evaluate_stack(moved, [p], 0.0).splats
     assert_same(got, ref.reveal(moved, p, 0.0, moved.positions), moved)
     assert not np.array_equal(got.opacities, first.opacities)
+
+
+def test_blocks_run_once_each_and_nested_loops_finish(monkeypatch):
+    """for_blocks covers every row once on two threads, passes a block's error on, and a
+    loop started from inside a block (on the helper thread too) runs instead of waiting."""
+    import threading
+    monkeypatch.setattr(common, "THREADS", 2)
+    n = 9 * 1000 + 7
+    seen = np.zeros(n, np.int64)
+    inner = np.zeros(n, np.int64)
+
+    def block(part):
+        seen[part] += 1
+        common.for_blocks(part.stop - part.start, lambda p: np.add.at(
+            inner, np.arange(part.start + p.start, part.start + p.stop), 1), 100)
+
+    done = threading.Event()
+    threading.Thread(target=lambda: (common.for_blocks(n, block, 1000), done.set()),
+                     daemon=True).start()
+    assert done.wait(60), "for_blocks did not return"
+    assert (seen == 1).all() and (inner == 1).all()
+
+    def fails(part):
+        if part.start == 5000:
+            raise ValueError("block 5")
+    with pytest.raises(ValueError, match="block 5"):
+        common.for_blocks(n, fails, 1000)

@@ -99,7 +99,8 @@ def for_blocks(n: int, fn, block: int = BLOCK) -> None:
     long on two free cores; each block's arithmetic is the same on either thread, so
     results are identical to running them in order (tests/test_effects_fast_paths.py)."""
     parts = list(blocks(n, block))
-    if len(parts) < 4 or THREADS < 2:
+    if len(parts) < 4 or THREADS < 2 or threading.current_thread().name.startswith(_NAME):
+        # (on the helper itself, a nested call runs in order: waiting there would deadlock)
         for part in parts:
             fn(part)
         return
@@ -123,14 +124,16 @@ def for_blocks(n: int, fn, block: int = BLOCK) -> None:
 
 def _helper() -> ThreadPoolExecutor:
     global _POOL
-    with _RANDOM_LOCK:
+    with _POOL_LOCK:
         if _POOL is None:
-            _POOL = ThreadPoolExecutor(1, thread_name_prefix="splatline-effects")
+            _POOL = ThreadPoolExecutor(1, thread_name_prefix=_NAME)
         return _POOL
 
 
 THREADS = 2 if (os.cpu_count() or 1) > 1 else 1   # 1: every block on the calling thread
 _POOL = None
+_POOL_LOCK = threading.Lock()
+_NAME = "splatline-effects"
 
 
 def scale_rows(a: np.ndarray, factor: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:

@@ -16,9 +16,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import F32, EffectParams
+from .common import F32, EffectParams, for_blocks
 from .kind import FREQUENCY, SEED, EffectKind, Field
-from .noise import field
+from .noise import field_rows
 
 
 @dataclass
@@ -39,29 +39,34 @@ def layer_weights(speed: float, time: float) -> tuple[int, float, float]:
     return k, (1.0 - s) / norm, s / norm
 
 
-def noise_vectors(positions: np.ndarray, p: Displace, time: float) -> list[np.ndarray]:
+def noise_layers(positions: np.ndarray, p: Displace, time: float):
+    """(weight of layer k, its three channels), and the same for layer k+1 where its weight
+    is not 0: the memoized noise at the rest centres."""
     k, w0, w1 = layer_weights(p.speed, time)
-    first = field(positions, p.frame, p.frequency, p.seed, 3, k)
-    if w1 == 0.0:
-        return [c * F32(w0) for c in first]
-    second = field(positions, p.frame, p.frequency, p.seed, 3, k + 1)
-    out = []
-    for a, b in zip(first, second):
-        c = a * F32(w0)
-        c += b * F32(w1)
-        out.append(c)
-    return out
+    layers = [(w0, field_rows(positions, p.frame, p.frequency, p.seed, 3, k))]
+    if w1 != 0.0:
+        layers.append((w1, field_rows(positions, p.frame, p.frequency, p.seed, 3, k + 1)))
+    return layers
 
 
 def apply(splats, p: Displace, time: float = 0.0, rest=None):
     if not p.active or p.amplitude == 0.0 or splats.count == 0:
         return splats
-    noise = noise_vectors(splats.positions if rest is None else rest, p, time)
+    layers = noise_layers(splats.positions if rest is None else rest, p, time)
     positions = np.empty_like(splats.positions)
     gain = F32(p.amount * p.amplitude)
-    for axis in range(3):
-        noise[axis] *= gain
-        np.add(splats.positions[:, axis], noise[axis], out=positions[:, axis])
+    # block by block, so the blend's temporaries stay in cache; per value the same float32
+    # operations as a whole-array (w0 a + w1 b) * gain + position
+    (w0, first), *others = layers
+
+    def block(part):
+        c = first[part] * F32(w0)
+        for w1, second in others:
+            c += second[part] * F32(w1)
+        c *= gain
+        np.add(splats.positions[part], c, out=positions[part])
+
+    for_blocks(splats.count, block)
     return replace(splats, positions=positions)
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import quaternion
-from .common import (F32, EffectParams, blocks, frame_axis, frame_origin, join,
+from .common import (F32, EffectParams, for_blocks, frame_axis, frame_origin, join,
                      per_splat_random, split, unit_columns)
 from .kind import SEED, EffectKind, Field
 
@@ -72,7 +72,7 @@ def apply(splats, p: Explode, time: float = 0.0, rest=None):
     half = 0.5 * p.spin * tau * p.amount  # every splat turns by this, about its own axis
     positions = np.empty_like(splats.positions)
     rotations = np.empty_like(splats.rotations) if normals is not None else None
-    for part in blocks(n):
+    def block(part):
         centres = splats.positions[part]
         v = velocities(centres, p, jitter[:, part])
         start = split(centres)
@@ -85,6 +85,8 @@ def apply(splats, p: Explode, time: float = 0.0, rest=None):
             turn = [np.full(part.stop - part.start, np.cos(half), F32)]
             turn += [axis * F32(np.sin(half)) for axis in spin_axes(normals[:, part])]
             rotations[part] = quaternion.multiply(turn, splats.rotations[part])
+
+    for_blocks(n, block)
     changes = {"positions": positions}
     if rotations is not None:
         changes["rotations"] = rotations

@@ -13,7 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, field_blocks
+from .common import F32, EffectParams, field_values, for_blocks
+from .field_memo import FIELD_VALUES
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
 
@@ -33,21 +34,30 @@ class Grade(EffectParams):
 
 
 def gradient(x: np.ndarray, stops) -> list[np.ndarray]:
-    """Per-channel piecewise-linear colour at x (float32 columns), constant beyond the end
-    stops, as np.interp; stops are (position, rgb) in any order."""
+    """Per-channel piecewise-linear colour at x (float32 columns, x in [0, 1]), constant
+    beyond the end stops, as np.interp; stops are (position, rgb) in any order."""
     ordered = sorted(stops, key=lambda s: s[0])
-    out = [np.full(x.shape[0], ordered[0][1][c], F32) for c in range(3)]
+    out = [None, None, None]   # None: still the first stop's colour
     for (x0, c0), (x1, c1) in zip(ordered, ordered[1:]):
         if x1 > x0:
-            w = x - F32(x0)
-            w *= F32(1.0 / (x1 - x0))
-            np.clip(w, 0.0, 1.0, out=w)
+            if x0 == 0.0 and x1 == 1.0:
+                w = x  # (x - 0) * 1 clipped to [0, 1]: x itself, as x is already clipped
+            else:
+                w = x - F32(x0)
+                w *= F32(1.0 / (x1 - x0))
+                np.clip(w, 0.0, 1.0, out=w)
         else:  # two stops at one position: a hard step
             w = (x >= F32(x0)).astype(F32)
         for c in range(3):
             if c1[c] != c0[c]:
-                out[c] += w * F32(c1[c] - c0[c])
-    return out
+                step = w * F32(c1[c] - c0[c])
+                if out[c] is None:  # the first stop's colour + step, added in either order
+                    step += F32(ordered[0][1][c])
+                    out[c] = step
+                else:
+                    out[c] += step
+    return [np.full(x.shape[0], ordered[0][1][c], F32) if g is None else g
+            for c, g in enumerate(out)]
 
 
 def apply(splats, p: Grade, time: float = 0.0, rest=None):
@@ -58,9 +68,20 @@ def apply(splats, p: Grade, time: float = 0.0, rest=None):
     if p.field not in FIELDS:
         raise ValueError(f"Grade field {p.field!r} is not one of {FIELDS}")
     noise = rest_field(splats, rest, p) if p.field == "NOISE" else None
+    whole = None
+    if noise is None and splats.positions is rest:  # the stack's input: the same every frame
+        whole = FIELD_VALUES.get(splats.positions, p.frame, p.field)
     dc = np.empty_like(splats.sh_dc)
-    for part, x in field_blocks(splats.positions, p.frame, p.field, noise):
+
+    def block(part):
+        if whole is not None:
+            x = whole[part].copy()
+        else:
+            x = field_values(splats.positions[part], p.frame, p.field,
+                             None if noise is None else noise[part])
         _grade_block(splats.sh_dc[part], x, p, dc[part])
+
+    for_blocks(splats.count, block)
     return replace(splats, sh_dc=dc)
 
 

@@ -18,6 +18,7 @@ from collections import OrderedDict
 import numpy as np
 
 from .common import F32, local_columns
+from .lattice import LATTICES, cell
 
 PERIOD = 32          # lattice cells before the pattern repeats (a power of two)
 _MASK = PERIOD - 1
@@ -53,13 +54,7 @@ def lattice_value(seed: int, channel: int, i: int, j: int, k: int) -> float:
 
 
 def _cell(v: np.ndarray):
-    """Integer cell index (wrapped) and the smoothed fraction of one coordinate column."""
-    base = np.floor(v)
-    frac = v - base
-    frac *= frac * (F32(3.0) - F32(2.0) * frac)
-    index = base.astype(np.intp)  # take() wants intp indices; int32 would be converted
-    index &= _MASK
-    return index, frac
+    return cell(v, PERIOD)
 
 
 def _weights(sx, sy, sz) -> np.ndarray:
@@ -107,7 +102,8 @@ def value_noise(x: np.ndarray, y: np.ndarray, z: np.ndarray, seed: int,
 
 class FieldCache:
     """Noise values at splat centres, keyed by the positions array itself (held weakly),
-    the gizmo frame, frequency, seed, layer and channel count. Values are read-only."""
+    the gizmo frame, frequency, seed, layer and channel count. Values are read-only
+    (N, channels) arrays: a Displace blend then works on contiguous rows."""
 
     def __init__(self, size: int = 8):
         self.size = size
@@ -115,7 +111,7 @@ class FieldCache:
         self.lock = threading.Lock()
 
     def get(self, positions: np.ndarray, frame: np.ndarray, frequency: float, seed: int,
-            channels: int, layer: int = 0) -> list[np.ndarray]:
+            channels: int, layer: int = 0) -> np.ndarray:
         key = (id(positions), np.asarray(frame, np.float64).tobytes(), float(frequency), seed,
                channels, layer)
         with self.lock:
@@ -123,9 +119,8 @@ class FieldCache:
             if hit is not None and hit[0]() is positions:
                 self.entries.move_to_end(key)
                 return hit[1]
-        values = evaluate_field(positions, frame, frequency, seed, channels, layer)
-        for v in values:
-            v.flags.writeable = False
+        values = evaluate_rows(positions, frame, frequency, seed, channels, layer)
+        values.flags.writeable = False
         with self.lock:
             for dead in [k for k, (ref, _) in self.entries.items() if ref() is None]:
                 del self.entries[dead]  # their centres are gone: no lookup can hit them
@@ -139,8 +134,36 @@ class FieldCache:
             self.entries.clear()
 
 
+def evaluate_rows(positions, frame, frequency, seed, channels, layer=0) -> np.ndarray:
+    """Noise at the gizmo-local centres times frequency, (N, channels) (no memo of the
+    values; the centres' lattice geometry is memoized in lattice.LATTICES, shared by every
+    layer). The channels' corner tables side by side: one gather per point for all."""
+    lattice = LATTICES.get(positions, frame, frequency, PERIOD)
+    return lattice.sample(corner_tables(seed, channels, layer))
+
+
+def corner_tables(seed: int, channels: int, layer: int = 0) -> np.ndarray:
+    """(cells, channels, 8): the channels' corner tables side by side (memoized with them)."""
+    key = (seed, "channels", channels, layer)
+    tables = _TABLES.get(key)
+    if tables is None:
+        tables = np.stack([corner_table(seed, c, layer) for c in range(channels)], axis=1)
+        tables.flags.writeable = False
+        with _LOCK:
+            _TABLES[key] = tables
+            while len(_TABLES) > _MAX_TABLES:
+                _TABLES.popitem(last=False)
+    return tables
+
+
 def evaluate_field(positions, frame, frequency, seed, channels, layer=0) -> list[np.ndarray]:
-    """Noise at the gizmo-local centres times frequency (no memo)."""
+    """evaluate_rows as one (N,) array per channel."""
+    rows = evaluate_rows(positions, frame, frequency, seed, channels, layer)
+    return [rows[:, c] for c in range(channels)]
+
+
+def reference_field(positions, frame, frequency, seed, channels, layer=0) -> list[np.ndarray]:
+    """evaluate_field through value_noise: the readable maths the fast path is pinned to."""
     cols = local_columns(positions, frame)
     f = F32(frequency)
     for col in cols:
@@ -159,4 +182,10 @@ def rest_field(splats, rest, p) -> np.ndarray:
 
 def field(positions, frame, frequency, seed, channels=1, layer=0) -> list[np.ndarray]:
     """Memoized noise at splat centres: read-only (N,) float32 arrays, one per channel."""
+    rows = field_rows(positions, frame, frequency, seed, channels, layer)
+    return [rows[:, c] for c in range(channels)]
+
+
+def field_rows(positions, frame, frequency, seed, channels=1, layer=0) -> np.ndarray:
+    """Memoized noise at splat centres: one read-only (N, channels) float32 array."""
     return FIELDS.get(positions, frame, frequency, seed, channels, layer)

@@ -14,7 +14,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, add_rows, field_blocks, scale_rows, smoothstep01
+from .common import (F32, EffectParams, add_rows, field_values, for_blocks, put_rows,
+                     scale_rows, smoothstep01)
+from .field_memo import FIELD_VALUES
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
 
@@ -36,14 +38,38 @@ class Reveal(EffectParams):
 
 
 def edge_position(f: np.ndarray, p: Reveal) -> np.ndarray:
-    """s in [0, 1]: 1 well inside the shown side, 0 well outside, 0.5 at the threshold."""
+    """s in [0, 1]: 1 well inside the shown side, 0 well outside, 0.5 at the threshold
+    (a fresh array; f is only read)."""
     if p.width <= 0.0:
         return (f < F32(p.progress)).astype(F32)
-    s = f  # f is a fresh array owned here
-    s -= F32(p.progress)
+    s = f - F32(p.progress)
     s *= F32(-1.0 / p.width)
     s += F32(0.5)
     return np.clip(s, 0.0, 1.0, out=s)
+
+
+def glow_rows(sh_dc: np.ndarray, glow: np.ndarray, colour, out: np.ndarray) -> np.ndarray:
+    """add_rows(sh_dc, colour, glow, out) where glow is +0 off the edge's band (s = 0 or 1):
+    those rows get sh_dc + (+0 * colour), which is sh_dc + 0 (one flat add) when each
+    channel's +0 * colour is +0, sh_dc itself when each is -0; only the band's rows are
+    weighted. Bit for bit add_rows' result; mixed signs or a colour that is not finite
+    take add_rows."""
+    zeros = [F32(0.0) * F32(c) for c in colour[:3]]
+    signs = {bool(np.signbit(z)) for z in zeros}
+    if len(signs) > 1 or not all(np.isfinite(zeros)):
+        return add_rows(sh_dc, colour, glow, out=out)
+    if signs == {True}:
+        np.copyto(out, sh_dc)
+    else:
+        np.add(sh_dc, F32(0.0), out=out)
+    band = np.flatnonzero(glow != F32(0.0))  # nonzero on floats is ~10x slower than on bools
+    if band.size:
+        rows = np.take(sh_dc, band, axis=0)
+        weight = glow[band]
+        for c in range(3):
+            rows[:, c] += weight * F32(colour[c])
+        put_rows(out, band, rows)
+    return out
 
 
 def apply(splats, p: Reveal, time: float = 0.0, rest=None):
@@ -52,15 +78,24 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if p.shape not in _FIELD:
         raise ValueError(f"Reveal shape {p.shape!r} is not one of {SHAPES}")
     noise = rest_field(splats, rest, p) if p.shape == "NOISE" else None
+    whole = None
+    if noise is None and splats.positions is rest:  # the stack's input: the same every frame
+        whole = FIELD_VALUES.get(splats.positions, p.frame, _FIELD[p.shape])
     opacities = np.empty_like(splats.opacities)
     scales = np.empty_like(splats.scales) if p.shrink > 0.0 else None
     sh_dc = np.empty_like(splats.sh_dc) if p.glow_strength > 0.0 else None
-    for part, f in field_blocks(splats.positions, p.frame, _FIELD[p.shape], noise):
+
+    def block(part):
+        if whole is not None:
+            f = whole[part]
+        else:
+            f = field_values(splats.positions[part], p.frame, _FIELD[p.shape],
+                             None if noise is None else noise[part])
         s = edge_position(f, p)
         if sh_dc is not None:
             glow = s * (F32(1.0) - s)
             glow *= F32(4.0 * p.amount * p.glow_strength / C0)
-            sh_dc[part] = add_rows(splats.sh_dc[part], p.glow_color, glow)
+            glow_rows(splats.sh_dc[part], glow, p.glow_color, sh_dc[part])
         hidden = smoothstep01(s)  # visibility, in place
         if not p.invert:
             hidden -= F32(1.0)
@@ -72,7 +107,9 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
         if scales is not None:
             hidden *= F32(-p.amount * p.shrink)
             hidden += F32(1.0)
-            scales[part] = scale_rows(splats.scales[part], hidden)
+            scale_rows(splats.scales[part], hidden, out=scales[part])
+
+    for_blocks(splats.count, block)
     changes = {"opacities": opacities}
     if scales is not None:
         changes["scales"] = scales

@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .common import (F32, EffectParams, blocks, frame_axis, frame_origin, join, local_columns,
+from .common import (F32, EffectParams, for_blocks, frame_axis, frame_origin, join, local_columns,
                      rotate_quats_about, split)
 from .kind import EffectKind, Field
 
@@ -67,7 +67,7 @@ def apply(splats, p: Twist, time: float = 0.0, rest=None):
     origin, axis = frame_origin(p.frame), frame_axis(p.frame)
     positions = np.empty_like(splats.positions)
     rotations = np.empty_like(splats.rotations)
-    for part in blocks(splats.count):
+    def block(part):
         centres = splats.positions[part]
         half = angles(centres, p)
         half *= F32(0.5)
@@ -81,6 +81,8 @@ def apply(splats, p: Twist, time: float = 0.0, rest=None):
         cos += F32(1.0)
         positions[part] = rotate_about_axis(centres, origin, axis, cos, sin)
         rotations[part] = rotate_quats_about(axis, cos_half, sin_half, splats.rotations[part])
+
+    for_blocks(splats.count, block)
     return replace(splats, positions=positions, rotations=rotations)
 
 

@@ -97,7 +97,7 @@ def for_blocks(n: int, fn, block: int = BLOCK) -> None:
     writes. Where there are several blocks and THREADS is 2, this thread and one helper
     take blocks in turn (numpy's loops release the GIL), so a frame waits about half as
     long on two free cores; each block's arithmetic is the same on either thread, so
-    results are identical to running them in order (tests/test_effects_fast_paths.py)."""
+    results are identical to running them in order (tests/core/effects/test_effects_fast_paths.py)."""
     parts = list(blocks(n, block))
     if len(parts) < 4 or THREADS < 2 or threading.current_thread().name.startswith(_NAME):
         # (on the helper itself, a nested call runs in order: waiting there would deadlock)

@@ -9,7 +9,7 @@ of 32 bytes a channel and one weighted sum per channel and point.
 
 The weighted sum here is an einsum over (N, 8) rows, which numpy sums in a different order
 from value_noise's einsum over (8, N) weights: values agree with it to a few float32 ulps
-(tests/test_effects_fast_paths.py pins them), and value_noise stays the readable
+(tests/core/effects/test_effects_fast_paths.py pins them), and value_noise stays the readable
 reference. (Not a matrix product: BLAS threads that spin while waiting for a core cost
 more than they save on a busy machine.)
 """

@@ -14,7 +14,7 @@ import itertools
 import numpy as np
 import pytest
 
-import effects_reference as ref
+from testing import effects_reference as ref
 from addon.core.effects import (Displace, Explode, Grade, Morph, Reveal, Twist, apply_effect,
                                 common, evaluate_stack, noise)
 from addon.core.effects.lattice import LATTICES

@@ -1,5 +1,5 @@
 """The effect kernels as they stood at 09da160, before the fast paths: readable numpy, one
-block (or one whole array) at a time on one thread. tests/test_effects_fast_paths.py pins
+block (or one whole array) at a time on one thread. tests/core/effects/test_effects_fast_paths.py pins
 the kernels in addon/core/effects to these (bit for bit, or within the bound it states)."""
 from __future__ import annotations
 

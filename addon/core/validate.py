@@ -95,8 +95,11 @@ def find_bad(splats: SplatSet) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict
         mask = _rows_nonfinite(arr)
         by_field[name] = int(mask.sum())
         nonfinite |= mask
-    zero_q = ~splats.rotations.any(axis=1) & ~nonfinite
-    nonpos = (splats.scales.min(axis=1) <= 0) & ~nonfinite if n else np.zeros(0, bool)
+    # column by column: numpy's any/min along a row of 3 or 4 runs a loop per row, 10x slower
+    # (0.05 s of CPU at 1M splats); the same answers, NaN included (not zero, min is NaN)
+    q, scales = splats.rotations, splats.scales
+    zero_q = (q[:, 0] == 0) & (q[:, 1] == 0) & (q[:, 2] == 0) & (q[:, 3] == 0) & ~nonfinite
+    nonpos = (np.minimum(np.minimum(scales[:, 0], scales[:, 1]), scales[:, 2]) <= 0) & ~nonfinite
     return nonfinite, zero_q, nonpos, by_field
 
 

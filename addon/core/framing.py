@@ -35,6 +35,26 @@ ORBIT_SAMPLES = 720  # azimuths the orbit's fit checks (frames fall within 0.25 
 ISOTROPIC = 0.95  # horizontal spreads closer than this ratio: no broad face to call front
 
 
+# Rows a product takes at once (rows_times): under OpenBLAS's threshold for threading
+ROWS_PER_PRODUCT = 2048
+
+
+def rows_times(rows, matrix) -> np.ndarray:
+    """rows @ matrix in float64, a block of rows at a time: the same values bit for bit
+    (tests/test_import_speed_paths.py), but each block stays under OpenBLAS's size for
+    threading, whose idle worker would otherwise spin for about 0.1 s of CPU after every
+    call on a million centres. A last block of one row joins the one before it: numpy
+    multiplies a single row by another BLAS routine, which can round differently."""
+    rows, matrix = np.asarray(rows, np.float64), np.asarray(matrix, np.float64)
+    out = np.empty(rows.shape[:1] + matrix.shape[1:], np.float64)
+    starts = list(range(0, len(rows), ROWS_PER_PRODUCT))
+    if len(starts) > 1 and len(rows) - starts[-1] == 1:
+        starts.pop()
+    for start, end in zip(starts, starts[1:] + [len(rows)]):
+        np.matmul(rows[start:end], matrix, out=out[start:end])
+    return out
+
+
 @dataclass(frozen=True)
 class Bounds:
     centre: np.ndarray  # (3,) world
@@ -107,7 +127,8 @@ def front_direction(points_world, bounds: Bounds, up, forward) -> np.ndarray:
     inside = pts[_all_columns((pts >= bounds.low) & (pts <= bounds.high))] - bounds.centre
     if len(inside) < 3:
         return ahead
-    values, vectors = np.linalg.eigh(np.cov(np.stack([inside @ ahead, inside @ across])))
+    spread = np.cov(np.stack([rows_times(inside, ahead), rows_times(inside, across)]))
+    values, vectors = np.linalg.eigh(spread)
     if values[1] <= 0.0 or math.sqrt(max(values[0], 0.0) / values[1]) > ISOTROPIC:
         return ahead
     a, b = vectors[:, 0]

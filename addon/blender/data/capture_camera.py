@@ -30,7 +30,7 @@ def splat_world_points(objects) -> np.ndarray:
     for obj in objects:
         local = read_positions(obj.data).astype(np.float64)
         matrix = np.array(obj.matrix_world, np.float64)
-        parts.append(local @ matrix[:3, :3].T + matrix[:3, 3])
+        parts.append(framing.rows_times(local, matrix[:3, :3].T) + matrix[:3, 3])
     return np.concatenate(parts) if parts else np.zeros((0, 3))
 
 

@@ -142,3 +142,34 @@ def test_row_sums_flag_what_isfinite_flags(width):
     values[5, width - 1], values[6, 0], values[7, width // 2] = np.nan, np.inf, -np.inf
     values[8] = 3e38
     np.testing.assert_array_equal(validate._rows_nonfinite(values), ~np.isfinite(values).all(axis=1))
+
+
+@pytest.mark.parametrize("axes", ["AUTO", "RUB", "RFU"])
+def test_framing_a_fresh_import_reads_its_own_transform(bpy_empty, testdata, axes):
+    """No depsgraph update for objects placed by their own transform: their matrix_basis is
+    the matrix_world an update gives, bit for bit; parented, constrained or animated objects
+    are evaluated first."""
+    from addon.blender.data import capture_camera, files
+
+    bpy = bpy_empty
+    obj = files.import_file(bpy.context, str(testdata / "guitar.ply"), axes=axes)
+    obj.location, obj.scale = (0.5, -2.0, 1.25), (2.0, 0.5, 1.5)
+    obj.delta_location = (0.25, 0.0, -1.0)
+    assert capture_camera._own_transforms([obj])
+    own = capture_camera.splat_world_points([obj], own_transforms=True)
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(own, capture_camera.splat_world_points([obj]))
+    np.testing.assert_array_equal(np.array(obj.matrix_basis), np.array(obj.matrix_world))
+
+    constraint = obj.constraints.new("COPY_LOCATION")
+    assert not capture_camera._own_transforms([obj])
+    obj.constraints.remove(constraint)
+    obj.keyframe_insert("location")
+    assert not capture_camera._own_transforms([obj])
+    obj.animation_data_clear()
+    parent = bpy.data.objects.new("parent", None)
+    bpy.context.scene.collection.objects.link(parent)
+    obj.parent, parent.location = parent, (10.0, 0.0, 0.0)
+    assert not capture_camera._own_transforms([obj])
+    capture_camera.add_framing_camera(bpy.context, [obj], "front", 1, 1)
+    assert obj.matrix_world.translation.x == pytest.approx(10.75)  # evaluated: the parent counts

@@ -20,9 +20,10 @@ Times are wall seconds and CPU seconds (user + system, every thread): CPU time i
 shared machine disturbs least, so the goals are judged on it; wall time is printed beside.
 The file is generated once in a temporary folder (the page cache then holds it for every
 variant) and deleted with the .blend files. The children run with Python's bytecode cache,
-as an installed Python and Blender do (this project's CI sets PYTHONDONTWRITEBYTECODE, which
-made every run compile Splatline's ~120 modules from source, about 0.15 s of CPU): it is
-kept in the temporary folder (PYTHONPYCACHEPREFIX), filled by one untimed run of each kind.
+as an installed Python and Blender do (where PYTHONDONTWRITEBYTECODE is set, as on this
+project's shared machines, every run compiled Splatline's ~120 modules from source, about
+0.15 s of CPU): it is kept in the temporary folder (PYTHONPYCACHEPREFIX), filled by one
+untimed round of every variant, the baseline's and Blender's included.
 
 --baseline DIR adds Splatline rows for the code in DIR (another checkout, e.g. a worktree
 at an older commit), run by this same bench, alternating with this checkout's.

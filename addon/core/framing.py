@@ -35,6 +35,26 @@ ORBIT_SAMPLES = 720  # azimuths the orbit's fit checks (frames fall within 0.25 
 ISOTROPIC = 0.95  # horizontal spreads closer than this ratio: no broad face to call front
 
 
+# Rows a product takes at once (rows_times): under OpenBLAS's threshold for threading
+ROWS_PER_PRODUCT = 2048
+
+
+def rows_times(rows, matrix) -> np.ndarray:
+    """rows @ matrix in float64, a block of rows at a time: the same values bit for bit
+    (tests/test_import_speed_paths.py), but each block stays under OpenBLAS's size for
+    threading, whose idle worker would otherwise spin for about 0.1 s of CPU after every
+    call on a million centres. A last block of one row joins the one before it: numpy
+    multiplies a single row by another BLAS routine, which can round differently."""
+    rows, matrix = np.asarray(rows, np.float64), np.asarray(matrix, np.float64)
+    out = np.empty(rows.shape[:1] + matrix.shape[1:], np.float64)
+    starts = list(range(0, len(rows), ROWS_PER_PRODUCT))
+    if len(starts) > 1 and len(rows) - starts[-1] == 1:
+        starts.pop()
+    for start, end in zip(starts, starts[1:] + [len(rows)]):
+        np.matmul(rows[start:end], matrix, out=out[start:end])
+    return out
+
+
 @dataclass(frozen=True)
 class Bounds:
     centre: np.ndarray  # (3,) world
@@ -55,11 +75,17 @@ class Bounds:
 def robust_bounds(points_world, low=LOW_PERCENTILE, high=HIGH_PERCENTILE) -> Bounds:
     """Per-axis percentile box of the finite points, and its middle."""
     pts = np.asarray(points_world, np.float64).reshape(-1, 3)
-    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    pts = pts[_all_columns(np.isfinite(pts))]  # a copy of our own: percentile may reorder it
     if len(pts) == 0:
         raise ValueError("no finite splat centres to frame")
-    lo, hi = np.percentile(pts, [low, high], axis=0)
+    lo, hi = np.percentile(pts, [low, high], axis=0, overwrite_input=True)
     return Bounds((lo + hi) / 2.0, lo, hi)
+
+
+def _all_columns(mask) -> np.ndarray:
+    """mask.all(axis=1) of an (N, 3) boolean array, a column at a time: numpy's reduction
+    along a row of 3 runs a loop per row, several times slower at a million points."""
+    return mask[:, 0] & mask[:, 1] & mask[:, 2]
 
 
 def capture_axes(axes: str, object_rotation) -> tuple[np.ndarray, np.ndarray]:
@@ -98,10 +124,11 @@ def front_direction(points_world, bounds: Bounds, up, forward) -> np.ndarray:
     ahead = _level(up, forward)
     across = np.cross(up, ahead)
     pts = np.asarray(points_world, np.float64).reshape(-1, 3)
-    inside = pts[np.all((pts >= bounds.low) & (pts <= bounds.high), axis=1)] - bounds.centre
+    inside = pts[_all_columns((pts >= bounds.low) & (pts <= bounds.high))] - bounds.centre
     if len(inside) < 3:
         return ahead
-    values, vectors = np.linalg.eigh(np.cov(np.stack([inside @ ahead, inside @ across])))
+    spread = np.cov(np.stack([rows_times(inside, ahead), rows_times(inside, across)]))
+    values, vectors = np.linalg.eigh(spread)
     if values[1] <= 0.0 or math.sqrt(max(values[0], 0.0) / values[1]) > ISOTROPIC:
         return ahead
     a, b = vectors[:, 0]
@@ -156,8 +183,7 @@ def fill_distance(bounds: Bounds, up, forward, tan_half_x: float, tan_half_y: fl
     corners = box_corners(bounds) - bounds.centre
     # Camera-frame corners at distance 0: the view's rotation does not depend on distance, and
     # backing away by d only moves every corner d further along the camera's -z.
-    views = np.stack([_pose_at(bounds, up, forward, 1.0, a, math.radians(elevation_deg))[:3, :3]
-                      for a in azimuths])
+    views = view_rotations(up, forward, azimuths, math.radians(elevation_deg))
     local = np.einsum("pj,vjk->vpk", corners, views)
 
     def widest(distance):
@@ -189,6 +215,25 @@ def _level(up, forward) -> np.ndarray:
     up, forward = np.asarray(up, np.float64), np.asarray(forward, np.float64)
     forward = forward - up * float(forward @ up)
     return forward / np.linalg.norm(forward)
+
+
+def view_rotations(up, forward, azimuths, elevation) -> np.ndarray:
+    """(V, 3, 3): the rotation of _pose_at's camera-to-world matrix at each azimuth, all at
+    once (a view's turn depends on neither the distance nor the bounds' centre). Columns
+    right, true up and back, built as look_at builds them. fill_distance checks 720 azimuths
+    for an orbit: one _pose_at each (look_at and two 4x4 inverses) was 0.09 s of CPU of every
+    command-line import. Equal to _pose_at's to rounding (tests/test_framing_speed_paths.py)."""
+    up, forward = np.asarray(up, np.float64), _level(up, forward)
+    side = np.cross(up, forward)
+    azimuths = np.asarray(azimuths, np.float64).reshape(-1, 1)
+    back = -(forward * np.cos(azimuths) + side * np.sin(azimuths))
+    back = back * math.cos(elevation) + up * math.sin(elevation)
+    back /= np.linalg.norm(back, axis=1, keepdims=True)
+    right = np.cross(up, back)
+    along_up = np.linalg.norm(right, axis=1) < 1e-12  # looking along up: look_at's fallback
+    right[along_up] = np.cross((0.0, 1.0, 0.0), back[along_up])
+    right /= np.linalg.norm(right, axis=1, keepdims=True)
+    return np.stack([right, np.cross(back, right), back], axis=2)
 
 
 def _pose_at(bounds, up, forward, distance, azimuth, elevation) -> np.ndarray:

@@ -131,7 +131,7 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
         k, sh_coeff_count(min(degree, max_degree, RENDER_MAX_DEGREE)))
     return SplatSet(
         positions=positions,
-        scales=np.exp(scales).astype(np.float32),
+        scales=np.exp(scales, out=scales).astype(np.float32),
         rotations=normalize_quats_(rotations),
         opacities=sigmoid_(opacities[:, 0]).astype(np.float32),
         sh_dc=sh_dc,

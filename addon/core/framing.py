@@ -41,7 +41,7 @@ ROWS_PER_PRODUCT = 2048
 
 def rows_times(rows, matrix) -> np.ndarray:
     """rows @ matrix in float64, a block of rows at a time: the same values bit for bit
-    (tests/test_import_speed_paths.py), but each block stays under OpenBLAS's size for
+    (tests/core/test_import_speed_paths.py), but each block stays under OpenBLAS's size for
     threading, whose idle worker would otherwise spin for about 0.1 s of CPU after every
     call on a million centres. A last block of one row joins the one before it: numpy
     multiplies a single row by another BLAS routine, which can round differently."""
@@ -222,7 +222,7 @@ def view_rotations(up, forward, azimuths, elevation) -> np.ndarray:
     once (a view's turn depends on neither the distance nor the bounds' centre). Columns
     right, true up and back, built as look_at builds them. fill_distance checks 720 azimuths
     for an orbit: one _pose_at each (look_at and two 4x4 inverses) was 0.09 s of CPU of every
-    command-line import. Equal to _pose_at's to rounding (tests/test_framing_speed_paths.py)."""
+    command-line import. Equal to _pose_at's to rounding (tests/core/test_import_speed_paths.py)."""
     up, forward = np.asarray(up, np.float64), _level(up, forward)
     side = np.cross(up, forward)
     azimuths = np.asarray(azimuths, np.float64).reshape(-1, 1)

@@ -29,7 +29,7 @@ from ...core.splats import SplatSet
 from ..data import evaluated_geometry as geometry
 from ..data import native
 from ..data.pointcloud import is_splat_object
-from .items import item_for, shown, splat_objects
+from .items import item_for, shown, splat_objects, stored_as_is
 from ..registration import app_handlers
 
 SPLATLINE_ENGINE = "SPLATLINE"
@@ -77,8 +77,10 @@ class Handoff:
         original = obj_eval.original
         if not native.drawn_natively(original.data):
             return False
-        item = item_for(obj_eval, depsgraph) if shown(obj_eval) else None
         other = geometry.claim(original)
+        if other is None and shown(obj_eval) and stored_as_is(obj_eval):
+            return False
+        item = item_for(obj_eval, depsgraph) if shown(obj_eval) else None
         if other is None:
             if item is not None and not changes_splats(item):
                 return False

@@ -244,3 +244,68 @@ def test_a_duplicate_gets_its_own_companion(native_bpy, testdata):
     obj.name = "renamed"
     bpy.context.scene.frame_set(5)
     assert geometry.companion(obj).get("splatline_evaluated_of") == "renamed"
+
+
+# Each tweak makes item_for change the splats, so the handoff must not take the object as
+# stored: (what to set on obj.splatline, as (group path, property, value)).
+TWEAKS = {
+    "size": ("look", "size", 1.5), "opacity": ("look", "opacity", 0.5),
+    "hidden": ("look", "visible", False), "exposure": ("look", "exposure", 1.0),
+    "tint": ("look", "tint", (1.0, 0.5, 0.5)), "saturation": ("look", "saturation", 0.0),
+    "sh degree": ("look", "max_sh_degree", 1), "crop": ("look", "use_crop_sphere", True),
+}
+
+
+def test_an_import_is_handed_to_blender_without_reading_its_splats(native_bpy, testdata):
+    """A fresh import with the default look: Blender draws its stored splats, and the
+    handoff decides so from the settings alone (the base cache stays empty)."""
+    from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.evaluate import items
+
+    bpy = native_bpy
+    items._BASE.clear()
+    bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "guitar.ply"))
+    obj = bpy.context.view_layer.objects.active
+    bpy.context.scene.frame_set(2)
+    bpy.context.view_layer.update()
+    assert geometry.handoff_modifier(obj) is None
+    assert items.stored_as_is(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+    assert not items._BASE.entries  # nothing read back
+
+
+@pytest.mark.parametrize("tweak", sorted(TWEAKS))
+def test_a_changed_look_is_never_taken_as_stored(native_bpy, testdata, tweak):
+    """On test64 (SH degree 3, so capping the degree cuts bands)."""
+    from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.evaluate import items
+    from addon.blender.evaluate.native_handoff import changes_splats
+
+    bpy = native_bpy
+    bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "test64.ply"))
+    obj = bpy.context.view_layer.objects.active
+    group, prop, value = TWEAKS[tweak]
+    setattr(getattr(obj.splatline, group), prop, value)
+    bpy.context.view_layer.update()
+    obj_eval = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    assert not items.stored_as_is(obj_eval)
+    if items.shown(obj_eval):
+        assert changes_splats(items.item_for(obj_eval))
+    assert geometry.handoff_modifier(obj) is not None  # a companion draws the changed splats
+
+
+def test_an_effect_at_amount_zero_leaves_the_choice_to_the_evaluated_item(native_bpy, testdata):
+    """Unsure from settings (an effect on, at amount 0): the item decides, and it is unchanged."""
+    from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.evaluate import items
+
+    bpy = native_bpy
+    bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "guitar.ply"))
+    obj = bpy.context.view_layer.objects.active
+    items._BASE.clear()
+    effect = obj.splatline.effects.add()  # (the operator would evaluate it at amount 1 first)
+    effect.type, effect.amount = "TWIST", 0.0
+    bpy.context.view_layer.update()
+    obj_eval = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    assert not items.stored_as_is(obj_eval)
+    assert items._BASE.entries  # read: the settings alone could not tell
+    assert geometry.handoff_modifier(obj) is None

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
+from .pos_stage import ALL, ALPHA, PosStage
 from ...core.viewport_sort import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
@@ -57,6 +58,9 @@ class Stats:
     sorts: int = 0               # orders computed and uploaded
     uploads: int = 0             # splat data texture uploads
     table_uploads: int = 0       # per-object table uploads (matrices, display options)
+    alpha_uploads: int = 0       # of the uploads, opacity-only updates of the pos texture
+    frame_bytes: int = 0         # this draw's bytes sent to the GPU
+    frame_sort_cpu: float = 0.0  # frame_sort in the sorting thread's CPU time
     frame_sort: float = 0.0      # this draw's sort time on the drawing thread
     frame_upload: float = 0.0    # this draw's packing + texture uploads (data, order, table)
 
@@ -112,6 +116,7 @@ class ViewportRenderer:
         self.stats = Stats()
         self.state = _State()
         self.packs = _Packs()
+        self.pos = PosStage()
         self.worker = SortWorker(on_sorted) if worker else None
 
     def close(self) -> None:
@@ -121,6 +126,7 @@ class ViewportRenderer:
         self.gpu = None
         self.state = _State()
         self.packs = _Packs()
+        self.pos = PosStage()
 
     # -- data ---------------------------------------------------------------
     def _texture(self, name, items, per_splat, sources, build, extra=()):
@@ -138,6 +144,22 @@ class ViewportRenderer:
         self.stats.uploads += 1
         return time.perf_counter() - start
 
+    def _upload_pos(self, items, valid) -> float:
+        """The pos texture: kept when its sources are, its alpha channel alone rewritten
+        when only opacities (or drawability) changed; returns seconds spent."""
+        start = time.perf_counter()
+        change = self.pos.update([(_positions_key(i), i.splats.positions, i.key, i.splats.opacities, v)
+                                  for i, v in zip(items, valid)])
+        if change == ALPHA and "pos" in self.gpu.textures:
+            self.gpu.set_alpha("pos", self.pos.alpha)
+            self.stats.alpha_uploads += 1
+        elif change == ALL or (change == ALPHA and "pos" not in self.gpu.textures):
+            self.gpu.set_texture("pos", self.pos.flat)
+        else:
+            return 0.0
+        self.stats.uploads += 1
+        return time.perf_counter() - start
+
     def _valid(self, item, degree) -> np.ndarray:
         """packing.drawable, cached apart from the opacities an effect changes each frame."""
         s = item.splats
@@ -152,11 +174,8 @@ class ViewportRenderer:
         by_item = dict(zip(map(id, items), degrees))
         start = time.perf_counter()
         valid = [self._valid(i, g) for i, g in zip(items, degrees)]
-        by_valid = dict(zip(map(id, items), valid))
         seconds = time.perf_counter() - start
-        seconds += self._texture("pos", items, 4,
-                                 [(i.splats.positions, i.splats.opacities, v) for i, v in zip(items, valid)],
-                                 lambda i: packing.pack_pos(i.splats, by_valid[id(i)]))
+        seconds += self._upload_pos(items, valid)
         seconds += self._texture("shape", items, packing.SHAPE_VALUES,
                                  [(i.splats.rotations, i.splats.scales, i.splats.sh_dc) for i in items],
                                  lambda i: packing.pack_shape(i.splats))
@@ -180,7 +199,7 @@ class ViewportRenderer:
             self.state.positions_token = token
             self.state.sorted_token = None  # the old order is stale: sort inline this frame
         self.state.radius_token = tuple(ident for ident, _ in radii)
-        self.stats.cpu_bytes = self.packs.end_frame()
+        self.stats.cpu_bytes = self.packs.end_frame() + self.pos.nbytes
         self.stats.total = sum(i.splats.count for i in items)
         if seconds:
             self.stats.upload_seconds = seconds
@@ -220,6 +239,7 @@ class ViewportRenderer:
             result = visible_order(inputs, projection, near, far, bits)
             result.token = token
             self.stats.frame_sort += result.seconds
+            self.stats.frame_sort_cpu += result.cpu_seconds
             self._upload_order(result)
         elif not self._same_view(token, self.state.pending_token):
             self.state.pending_token = token
@@ -259,7 +279,7 @@ class ViewportRenderer:
         """
         from .gpu_draw import SplatGPU
 
-        self.stats.frame_sort = self.stats.frame_upload = 0.0
+        self.stats.frame_sort = self.stats.frame_upload = self.stats.frame_sort_cpu = 0.0
         keep = [k for k, i in enumerate(items) if i.splats.count]
         if not keep:
             self.stats.total = self.stats.drawn = 0
@@ -268,6 +288,7 @@ class ViewportRenderer:
         items = [items[k] for k in keep]
         if self.gpu is None:
             self.gpu = SplatGPU()
+        uploaded = self.gpu.uploaded
         width, height = int(viewport_size[0]), int(viewport_size[1])
         const = packing.view_constants(projection_matrix, width, height, antialiased=settings.antialiased,
                                capped_extent=settings.capped_extent,
@@ -279,6 +300,7 @@ class ViewportRenderer:
         self._update_order(items, soa, displays, l2c, projection_matrix, near, far, settings)
         self._update_objects(items, displays, l2c, bool(const["flags"][0]))
         self.stats.gpu_bytes = self.gpu.nbytes
+        self.stats.frame_bytes = self.gpu.uploaded - uploaded
         return const
 
     def _update_objects(self, items, displays, l2c, ortho) -> None:

@@ -110,6 +110,15 @@ def _positions_key(item: RenderItem):
     return item.key if item.positions_key is None else item.positions_key
 
 
+def _data_key(item: RenderItem, fields: tuple):
+    """The key to file what is built from these SplatSet fields under: the base data's
+    version while they are all its own arrays (an effect playing changes item.key every
+    frame but leaves them alone), else the item's key."""
+    if item.base_key is not None and item.base_fields.issuperset(fields):
+        return item.base_key
+    return item.key
+
+
 class ViewportRenderer:
     def __init__(self, worker: bool = False, on_sorted=None):
         self.gpu = None  # created on the first draw, inside a GPU context
@@ -129,11 +138,12 @@ class ViewportRenderer:
         self.pos = PosStage()
 
     # -- data ---------------------------------------------------------------
-    def _texture(self, name, items, per_splat, sources, build, extra=()):
-        """Upload texture `name` if any object's sources changed; returns seconds spent.
-        per_splat: values per splat of the stream (4 for the one-texel-a-splat pos)."""
+    def _texture(self, name, items, per_splat, fields, build, extra=()):
+        """Upload texture `name` if any object's source fields changed; returns seconds
+        spent. per_splat: values per splat of the stream."""
         start = time.perf_counter()
-        got = [self.packs.get(name, i, src, lambda i=i: build(i), extra) for i, src in zip(items, sources)]
+        got = [self.packs.get(name, i, tuple(getattr(i.splats, f) for f in fields), lambda i=i: build(i), extra,
+                              key=_data_key(i, fields)) for i in items]
         token = tuple(ident for ident, _ in got)
         if self.state.tokens.get(name) == token:
             return 0.0
@@ -148,8 +158,8 @@ class ViewportRenderer:
         """The pos texture: kept when its sources are, its alpha channel alone rewritten
         when only opacities (or drawability) changed; returns seconds spent."""
         start = time.perf_counter()
-        change = self.pos.update([(_positions_key(i), i.splats.positions, i.key, i.splats.opacities, v)
-                                  for i, v in zip(items, valid)])
+        change = self.pos.update([(_positions_key(i), i.splats.positions, _data_key(i, ("opacities",)),
+                                   i.splats.opacities, v) for i, v in zip(items, valid)])
         if change == ALPHA and "pos" in self.gpu.textures:
             self.gpu.set_alpha("pos", self.pos.alpha)
             self.stats.alpha_uploads += 1
@@ -162,9 +172,9 @@ class ViewportRenderer:
 
     def _valid(self, item, degree) -> np.ndarray:
         """packing.drawable, cached apart from the opacities an effect changes each frame."""
-        s = item.splats
-        return self.packs.get("valid", item, (s.rotations, s.scales, s.sh_dc, s.sh_rest),
-                              lambda: packing.drawable(s, degree), extra=(degree,))[1]
+        s, fields = item.splats, ("rotations", "scales", "sh_dc", "sh_rest")
+        return self.packs.get("valid", item, tuple(getattr(s, f) for f in fields),
+                              lambda: packing.drawable(s, degree), extra=(degree,), key=_data_key(item, fields))[1]
 
     def _update_data(self, items, displays) -> list:
         """Upload changed data textures; returns each item's positions (3, N) for sorting."""
@@ -176,10 +186,9 @@ class ViewportRenderer:
         valid = [self._valid(i, g) for i, g in zip(items, degrees)]
         seconds = time.perf_counter() - start
         seconds += self._upload_pos(items, valid)
-        seconds += self._texture("shape", items, packing.SHAPE_VALUES,
-                                 [(i.splats.rotations, i.splats.scales, i.splats.sh_dc) for i in items],
+        seconds += self._texture("shape", items, packing.SHAPE_VALUES, ("rotations", "scales", "sh_dc"),
                                  lambda i: packing.pack_shape(i.splats))
-        seconds += self._texture("sh", items, values, [(i.splats.sh_rest,) for i in items],
+        seconds += self._texture("sh", items, values, ("sh_rest",),
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
         self.gpu.sh_values = values

@@ -1,0 +1,138 @@
+"""The viewport's scrubbing paths (issue 29): the pos texture kept on the CPU and
+rewritten per part (pos_stage), and the opacity-only update that rewrites the GPU
+texture's alpha channel in place. Each is pinned to what a full upload gives: the
+packing reference (packing.pack_pos), the texture's texels and the drawn pixels."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from addon.blender.viewport import packing
+from addon.blender.viewport.pos_stage import ALL, ALPHA, NOTHING, PosStage
+from addon.core.formats import read
+from addon.core.scene import RenderItem
+from testing.viewport_scene import camera_for, draw_offscreen, psnr, two_objects
+
+
+@pytest.fixture(scope="module")
+def gpu_ready(_bpy_registered):
+    from testing.headless import ensure_gpu
+
+    ensure_gpu()
+    return True
+
+
+def _with_undrawable(splats, seed: int):
+    """A copy with some splats no renderer draws (zero quaternion, non-finite scale)."""
+    rng = np.random.default_rng(seed)
+    rotations, scales = splats.rotations.copy(), splats.scales.copy()
+    rotations[rng.choice(splats.count, 5, replace=False)] = 0.0
+    scales[rng.choice(splats.count, 3, replace=False), 1] = np.inf
+    return replace(splats, rotations=rotations, scales=scales)
+
+
+def _reference(items) -> np.ndarray:
+    """pack_pos of every object, concatenated: what a full upload sends."""
+    parts = [packing.pack_pos(i.splats, packing.drawable(i.splats, 3)) for i in items]
+    counts = [i.splats.count for i in items]
+    return packing.concatenate(parts, counts, 4)
+
+
+def _parts(items, valid):
+    return [(i.key, i.splats.positions, i.key, i.splats.opacities, v) for i, v in zip(items, valid)]
+
+
+def test_pos_stage_matches_a_full_pack_through_every_kind_of_change(testdata):
+    capture = _with_undrawable(read(testdata / "test64.ply"), seed=1)
+    guitar = read(testdata / "guitar.ply")
+    items = [RenderItem(capture, key=("a", 0)), RenderItem(guitar, key=("b", 0))]
+    stage, valids = PosStage(), {}
+    rng = np.random.default_rng(2)
+
+    def step(new_items, expected):
+        # the renderer keeps drawable()'s mask while its sources stay: so does this
+        valid = [valids.setdefault((i.key, id(i.splats.rotations), id(i.splats.scales)),
+                                   packing.drawable(i.splats, 3)) for i in new_items]
+        assert stage.update(_parts(new_items, valid)) == expected
+        np.testing.assert_array_equal(stage.flat, _reference(new_items))
+        if expected == ALPHA:
+            np.testing.assert_array_equal(stage.alpha, stage.flat[:, 3])
+        return new_items
+
+    items = step(items, ALL)
+    items = step(items, NOTHING)
+    faded = replace(items[1].splats, opacities=(items[1].splats.opacities * 0.5).astype(np.float32))
+    items = step([items[0], replace(items[1], splats=faded)], ALPHA)
+    moved = replace(items[0].splats, positions=items[0].splats.positions + rng.normal(0, 0.1, (64, 3))
+                    .astype(np.float32))
+    items = step([replace(items[0], splats=moved), items[1]], ALL)
+    items = step([replace(items[0], key=("a", 1)), items[1]], ALL)  # a new geometry version
+    items = step([items[1], items[0]], ALL)  # another layout
+    items = step(items[:1], ALL)
+
+
+def _pos_texels(renderer) -> np.ndarray:
+    texture = renderer.gpu.textures["pos"]
+    return np.array(texture.read().to_list(), np.float32).reshape(-1, 4)
+
+
+def test_an_opacity_change_uploads_only_the_alpha_and_draws_what_a_full_upload_does(testdata, gpu_ready):
+    from addon.blender.viewport import ViewportRenderer
+
+    items, centre = two_objects(testdata)
+    items = [replace(items[0], splats=_with_undrawable(items[0].splats, seed=3), key=("a", 0)),
+             replace(items[1], key=("b", 0))]
+    cam = camera_for(centre)
+    r = ViewportRenderer()
+    draw_offscreen(items, cam, renderer=r)
+    sorts, uploads = r.stats.sorts, r.stats.uploads
+    s = items[0].splats
+    faded = replace(s, opacities=np.linspace(0.05, 1.0, s.count, dtype=np.float32))
+    changed = [replace(items[0], splats=faded), items[1]]  # same key, positions and order
+    img, _ = draw_offscreen(changed, cam, renderer=r)
+    total = sum(i.splats.count for i in items)
+    assert r.stats.alpha_uploads == 1 and r.stats.uploads == uploads + 1 and r.stats.sorts == sorts
+    assert r.stats.frame_bytes == 4 * packing.padded(total), "only the alpha channel goes up"
+    texels = _pos_texels(r)
+    np.testing.assert_array_equal(texels, _reference(changed))  # NaN marks where it was
+    fresh, full = draw_offscreen(changed, cam)
+    assert full.stats.alpha_uploads == 0
+    np.testing.assert_array_equal(texels, _pos_texels(full))
+    assert psnr(img, fresh) == float("inf")
+    assert psnr(img, draw_offscreen(items, cam)[0]) < 60.0  # the change shows
+
+
+def test_a_reveal_without_shrink_or_glow_reaches_the_viewport_as_an_opacity_change(bpy_empty, gpu_ready):
+    """What the effect evaluation hands the viewport: a Reveal that only fades keeps the
+    base positions array and the positions key, so scrubbing it uploads the alpha alone."""
+    from addon.blender.viewport import ViewportRenderer
+    from animation_scene import add_object, grid_splats, items_at
+
+    bpy = bpy_empty
+    obj = add_object("capture", grid_splats(n_side=8))
+    bpy.context.view_layer.objects.active = obj
+    with bpy.context.temp_override(object=obj):
+        bpy.ops.splatline.effect_add(type="REVEAL")
+    reveal = obj.splatline.effects[0]
+    reveal.shrink = 0.0
+    reveal.glow_strength = 0.0
+    for frame, progress in ((1, -1.0), (20, 1.0)):
+        reveal.progress = progress
+        reveal.keyframe_insert("progress", frame=frame)
+    eye = np.array([0.3, -6.0, 0.8])
+    from addon.core.camera import look_at, simple_camera
+
+    cam = simple_camera(64, 48, 45.0, look_at(eye, (0, 0, 0)), near=0.05, far=50.0)
+    r = ViewportRenderer()
+    first = items_at(bpy, 8)
+    draw_offscreen(first, cam, renderer=r)
+    sorts = r.stats.sorts
+    later = items_at(bpy, 12)
+    assert later[0].positions_key == first[0].positions_key
+    assert later[0].splats.positions is first[0].splats.positions
+    img, _ = draw_offscreen(later, cam, renderer=r)
+    assert r.stats.alpha_uploads == 1 and r.stats.sorts == sorts
+    assert r.stats.frame_bytes == 4 * packing.padded(later[0].splats.count)
+    assert psnr(img, draw_offscreen(later, cam)[0]) == float("inf")

@@ -154,9 +154,12 @@ class SplatGPU:
         self.preprocesses = 0      # preprocess passes run so far
         self.uploaded = 0          # bytes sent to the GPU so far (textures, alpha updates)
         self._order_values = np.zeros(0, np.float32)  # kept: no full-size allocation a sort
-        self._alpha = None         # (shader, batch, framebuffer, its texture) of set_alpha
+        self._alpha = None         # (shader, batch) of set_alpha
+        self._alpha_target = None  # (texture, framebuffer) set_alpha last wrote
 
     def _upload(self, name: str, flat: np.ndarray, fmt: str, width: int = WIDTH) -> None:
+        if self._alpha_target is not None and self._alpha_target[0] is self.textures.get(name):
+            self._alpha_target = None  # let the replaced texture go
         self.textures[name] = float_texture(flat, fmt, width)
         self.uploaded += texture_bytes(self.textures[name])
         self.version += 1
@@ -172,13 +175,13 @@ class SplatGPU:
         target = self.textures[name]
         source = float_texture(values, "R32F", target.width)
         self.uploaded += texture_bytes(source)
-        if self._alpha is None or self._alpha[3] is not target:
-            shader = alpha_shader() if self._alpha is None else self._alpha[0]
-            batch = batch_for_shader(shader, "TRI_STRIP", {"corner": CORNERS}) if self._alpha is None \
-                else self._alpha[1]
-            self._alpha = (shader, batch, gpu.types.GPUFrameBuffer(color_slots=(target,)), target)
-        shader, batch, framebuffer, _ = self._alpha
-        with _pass_state(), framebuffer.bind():
+        if self._alpha is None:
+            shader = alpha_shader()
+            self._alpha = (shader, batch_for_shader(shader, "TRI_STRIP", {"corner": CORNERS}))
+        if self._alpha_target is None or self._alpha_target[0] is not target:
+            self._alpha_target = (target, gpu.types.GPUFrameBuffer(color_slots=(target,)))
+        shader, batch = self._alpha
+        with _pass_state(), self._alpha_target[1].bind():
             gpu.state.viewport_set(0, 0, target.width, target.height)
             gpu.state.scissor_set(0, 0, target.width, target.height)
             gpu.state.color_mask_set(False, False, False, True)

@@ -136,3 +136,24 @@ def test_a_reveal_without_shrink_or_glow_reaches_the_viewport_as_an_opacity_chan
     assert r.stats.alpha_uploads == 1 and r.stats.sorts == sorts
     assert r.stats.frame_bytes == 4 * packing.padded(later[0].splats.count)
     assert psnr(img, draw_offscreen(later, cam)[0]) == float("inf")
+
+
+@pytest.mark.parametrize("degree", [0, 1, 2, 3])
+def test_drawable_a_field_at_a_time_matches_drawable(testdata, degree):
+    """The viewport's per-field masks, ANDed, are packing.drawable, whatever is broken."""
+    s = read(testdata / "test64.ply")  # degree 3
+    rng = np.random.default_rng(degree)
+    rotations, scales, dc, rest = s.rotations.copy(), s.scales.copy(), s.sh_dc.copy(), s.sh_rest.copy()
+    rotations[3] = 0.0
+    rotations[5, 2] = np.nan
+    rotations[7, 0] = -np.inf
+    scales[9, 1] = np.inf
+    dc[11, 2] = np.nan
+    rest[13, 2, 1] = np.nan      # band 1: matters from degree 1
+    rest[15, 10, 0] = np.inf     # band 3: matters at degree 3 only
+    broken = replace(s, rotations=rotations, scales=scales, sh_dc=dc, sh_rest=rest)
+    for splats in (s, broken, replace(broken, rotations=rng.normal(size=(64, 4)).astype(np.float32))):
+        ok = (packing.rotation_rows(splats.rotations) & packing.finite_rows(splats.scales)
+              & packing.finite_rows(splats.sh_dc) & packing.rest_rows(splats, degree))
+        np.testing.assert_array_equal(ok, packing.drawable(splats, degree))
+    assert not packing.drawable(broken, degree)[[3, 5, 7, 9, 11]].any()

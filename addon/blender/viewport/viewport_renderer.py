@@ -126,6 +126,7 @@ class ViewportRenderer:
         self.state = _State()
         self.packs = _Packs()
         self.pos = PosStage()
+        self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
         self.worker = SortWorker(on_sorted) if worker else None
 
     def close(self) -> None:
@@ -136,6 +137,7 @@ class ViewportRenderer:
         self.state = _State()
         self.packs = _Packs()
         self.pos = PosStage()
+        self.last_valid, self.next_valid = {}, {}
 
     # -- data ---------------------------------------------------------------
     def _texture(self, name, items, per_splat, fields, build, extra=()):
@@ -171,10 +173,24 @@ class ViewportRenderer:
         return time.perf_counter() - start
 
     def _valid(self, item, degree) -> np.ndarray:
-        """packing.drawable, cached apart from the opacities an effect changes each frame."""
-        s, fields = item.splats, ("rotations", "scales", "sh_dc", "sh_rest")
-        return self.packs.get("valid", item, tuple(getattr(s, f) for f in fields),
-                              lambda: packing.drawable(s, degree), extra=(degree,), key=_data_key(item, fields))[1]
+        """packing.drawable, a field at a time: each part is kept while its field is (a
+        colour effect recomputes the SH DC test alone), and an unchanged result is the
+        previous array itself, so the pos texture's alpha is not rewritten for it."""
+        s = item.splats
+        tests = (("rotations", packing.rotation_rows), ("scales", packing.finite_rows),
+                 ("sh_dc", packing.finite_rows))
+        parts = [self.packs.get(f"ok_{f}", item, (getattr(s, f),), lambda f=f, t=t: t(getattr(s, f)),
+                                key=_data_key(item, (f,)))[1] for f, t in tests]
+        parts.append(self.packs.get("ok_sh_rest", item, (s.sh_rest,), lambda: packing.rest_rows(s, degree),
+                                    extra=(degree,), key=_data_key(item, ("sh_rest",)))[1])
+        # the parts are this renderer's own arrays, never written: their identity is their value
+        slot = _data_key(item, ())
+        valid = self.packs.get("valid", item, tuple(parts), lambda: np.logical_and.reduce(parts), key=slot)[1]
+        last = self.last_valid.get(slot)
+        if last is not None and last is not valid and np.array_equal(last, valid):
+            valid = last
+        self.next_valid[slot] = valid
+        return valid
 
     def _update_data(self, items, displays) -> list:
         """Upload changed data textures; returns each item's positions (3, N) for sorting."""
@@ -184,6 +200,7 @@ class ViewportRenderer:
         by_item = dict(zip(map(id, items), degrees))
         start = time.perf_counter()
         valid = [self._valid(i, g) for i, g in zip(items, degrees)]
+        self.last_valid, self.next_valid = self.next_valid, {}
         seconds = time.perf_counter() - start
         seconds += self._upload_pos(items, valid)
         seconds += self._texture("shape", items, packing.SHAPE_VALUES, ("rotations", "scales", "sh_dc"),

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from addon.blender.viewport import packing
-from addon.blender.viewport.pos_stage import ALL, ALPHA, NOTHING, PosStage
+from addon.blender.viewport.pos_stage import ALL, ALPHA, NOTHING, PosStage, ShapeStage
 from addon.core.formats import read
 from addon.core.scene import RenderItem
 from testing.viewport_scene import camera_for, draw_offscreen, psnr, two_objects
@@ -157,3 +157,34 @@ def test_drawable_a_field_at_a_time_matches_drawable(testdata, degree):
               & packing.finite_rows(splats.sh_dc) & packing.rest_rows(splats, degree))
         np.testing.assert_array_equal(ok, packing.drawable(splats, degree))
     assert not packing.drawable(broken, degree)[[3, 5, 7, 9, 11]].any()
+
+
+def test_shape_stage_matches_pack_shape_through_every_kind_of_change(testdata):
+    capture = _with_undrawable(read(testdata / "test64.ply"), seed=4)
+    guitar = read(testdata / "guitar.ply")
+    items = [RenderItem(capture, key=("a", 0)), RenderItem(guitar, key=("b", 0))]
+    stage = ShapeStage()
+    rng = np.random.default_rng(5)
+    fields = ("rotations", "scales", "sh_dc")
+
+    def step(new_items, changed):
+        parts = [tuple((i.key, getattr(i.splats, f)) for f in fields) for i in new_items]
+        assert stage.update(parts) == changed
+        reference = packing.concatenate([packing.pack_shape(i.splats) for i in new_items],
+                                        [i.splats.count for i in new_items], packing.SHAPE_VALUES)
+        np.testing.assert_array_equal(stage.flat, reference)
+        return new_items
+
+    def changed_field(item, field, values):
+        return replace(item, splats=replace(item.splats, **{field: values}))
+
+    items = step(items, True)
+    items = step(items, False)
+    g = items[1].splats
+    items = step([items[0], changed_field(items[1], "sh_dc", g.sh_dc * np.float32(1.5))], True)
+    items = step([items[0], changed_field(items[1], "scales", g.scales * np.float32(0.5))], True)
+    turned = rng.normal(size=(g.count, 4)).astype(np.float32)  # every component the largest somewhere
+    items = step([items[0], changed_field(items[1], "rotations", turned)], True)
+    items = step([items[0], changed_field(items[1], "scales", np.zeros_like(g.scales))], True)  # HALF_TINY
+    items = step([replace(items[0], key=("a", 1)), items[1]], True)  # a new geometry version
+    items = step([items[1], items[0]], True)  # another layout

@@ -51,7 +51,7 @@ def padded(texels: int) -> int:
     return rows * WIDTH
 
 
-def _stream(values: int) -> np.ndarray:
+def stream(values: int) -> np.ndarray:
     """A zeroed (texels, 4) float32 array holding `values` values in whole rows."""
     return np.zeros((padded(-(-values // 4)), 4), np.float32)
 
@@ -118,17 +118,28 @@ def smallest_three(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.take_along_axis(q, _OTHERS[largest], axis=1), largest
 
 
+def shape_rotation(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The shape stream's rotation part: (N, 3) halves and (N,) the dropped index."""
+    three, largest = smallest_three(q)
+    return halves(three), largest
+
+
+def shape_scales(scales: np.ndarray, largest: np.ndarray) -> np.ndarray:
+    """The shape stream's scale part: |scale| as halves, signs carrying `largest`."""
+    out = np.abs(halves(scales))
+    out[out == 0] = HALF_TINY
+    out[:, 0] *= np.where(largest & 1, -1.0, 1.0)
+    out[:, 1] *= np.where(largest & 2, -1.0, 1.0)
+    return out
+
+
 def pack_shape(splats: SplatSet) -> np.ndarray:
     n = splats.count
-    flat = _stream(n * SHAPE_VALUES)
+    flat = stream(n * SHAPE_VALUES)
     view = flat.reshape(-1)[:n * SHAPE_VALUES].reshape(n, SHAPE_VALUES)
-    three, largest = smallest_three(splats.rotations)
-    view[:, 0:3] = halves(three)
-    scales = np.abs(halves(splats.scales))
-    scales[scales == 0] = HALF_TINY
-    scales[:, 0] *= np.where(largest & 1, -1.0, 1.0)
-    scales[:, 1] *= np.where(largest & 2, -1.0, 1.0)
-    view[:, 3:6] = scales
+    three, largest = shape_rotation(splats.rotations)
+    view[:, 0:3] = three
+    view[:, 3:6] = shape_scales(splats.scales, largest)
     view[:, 6:9] = halves(splats.sh_dc)
     return flat
 
@@ -136,7 +147,7 @@ def pack_shape(splats: SplatSet) -> np.ndarray:
 def pack_sh(splats: SplatSet, degree: int, values: int) -> np.ndarray:
     """Coefficients up to `degree`, `values` halves per splat (values >= sh_values(degree))."""
     n = splats.count
-    flat = _stream(n * values)
+    flat = stream(n * values)
     k = sh_coeff_count(max(0, min(degree, splats.sh_degree)))
     if k and n:
         view = flat.reshape(-1)[:n * values].reshape(n, values)
@@ -146,7 +157,7 @@ def pack_sh(splats: SplatSet, degree: int, values: int) -> np.ndarray:
 
 def concatenate(parts: list[np.ndarray], counts: list[int], per_splat: int) -> np.ndarray:
     """Several objects' streams (`per_splat` values each) as one stream, in order."""
-    flat = _stream(sum(counts) * per_splat)
+    flat = stream(sum(counts) * per_splat)
     out = flat.reshape(-1)
     start = 0
     for part, n in zip(parts, counts):

@@ -1,5 +1,5 @@
-"""The pos texture's CPU copy, kept between frames and rewritten only where its sources
-changed (no bpy, no gpu).
+"""The pos and shape textures' CPU copies, kept between frames and rewritten only where
+their sources changed (no bpy, no gpu).
 
 An effect playing hands the viewport new arrays every frame, but often only some of
 them: a fade or reveal makes new opacities and keeps the positions array, a displace
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import packing
 from .packing import padded
 
 NOTHING, ALPHA, ALL = 0, 1, 2
@@ -66,3 +67,51 @@ def _same(old: tuple, new: tuple) -> bool:
     """Equal keys and the very same arrays (`is`): a new geometry version under the same
     arrays (edited in place) has a new key."""
     return old[0] == new[0] and all(a is b for a, b in zip(old[1:], new[1:]))
+
+
+class ShapeStage:
+    """The shape stream (packing.pack_shape's layout: rotation, scales, SH DC; SHAPE_VALUES
+    a splat) kept between frames: a colour effect rewrites the DC columns alone, a size
+    effect the scales (with the rotation part's kept largest-component index)."""
+
+    def __init__(self):
+        self.flat: np.ndarray | None = None
+        self.counts: tuple = ()
+        self.sources: list = []  # per object: (rotations, scales, sh_dc) as (key, array)
+        self.largest: list = []  # per object: the dropped quaternion component's index
+
+    @property
+    def nbytes(self) -> int:
+        return 0 if self.flat is None else self.flat.nbytes + sum(a.nbytes for a in self.largest)
+
+    def update(self, parts: list[tuple]) -> bool:
+        """parts: per object ((key, rotations), (key, scales), (key, sh_dc)). Returns
+        whether the stream changed (the texture needs uploading)."""
+        counts = tuple(p[0][1].shape[0] for p in parts)
+        if self.flat is None or counts != self.counts:
+            self.flat = packing.stream(sum(counts) * packing.SHAPE_VALUES)
+            self.counts, self.sources, self.largest = counts, [None] * len(parts), [None] * len(parts)
+        changed, start = False, 0
+        for k, part in enumerate(parts):
+            n = counts[k]
+            view = self.flat.reshape(-1)[start * packing.SHAPE_VALUES:(start + n) * packing.SHAPE_VALUES]
+            view = view.reshape(n, packing.SHAPE_VALUES)
+            old = self.sources[k] or (None, None, None)
+            rotation, size, colour = (o is None or not _same(o, p) for o, p in zip(old, part))
+            if rotation:
+                three, largest = packing.shape_rotation(part[0][1])
+                self.largest[k] = largest.astype(np.int8)
+                _columns(view, 0, three)
+            if rotation or size:
+                _columns(view, 3, packing.shape_scales(part[1][1], self.largest[k]))
+            if colour:
+                _columns(view, 6, packing.halves(part[2][1]))
+            changed |= rotation or size or colour
+            self.sources[k] = part
+            start += n
+        return changed
+
+
+def _columns(view: np.ndarray, first: int, values: np.ndarray) -> None:
+    for c in range(values.shape[1]):  # a column at a time: several times faster than a block
+        view[:, first + c] = values[:, c]

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .pos_stage import ALL, ALPHA, PosStage
+from .pos_stage import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
@@ -125,7 +125,7 @@ class ViewportRenderer:
         self.stats = Stats()
         self.state = _State()
         self.packs = _Packs()
-        self.pos = PosStage()
+        self.pos, self.shape = PosStage(), ShapeStage()
         self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
         self.worker = SortWorker(on_sorted) if worker else None
 
@@ -136,7 +136,7 @@ class ViewportRenderer:
         self.gpu = None
         self.state = _State()
         self.packs = _Packs()
-        self.pos = PosStage()
+        self.pos, self.shape = PosStage(), ShapeStage()
         self.last_valid, self.next_valid = {}, {}
 
     # -- data ---------------------------------------------------------------
@@ -153,6 +153,17 @@ class ViewportRenderer:
         flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
         self.gpu.set_texture(name, flat)
         self.state.tokens[name] = token
+        self.stats.uploads += 1
+        return time.perf_counter() - start
+
+    def _upload_shape(self, items) -> float:
+        """The shape texture, its rotation, scale and colour parts rewritten apart."""
+        start = time.perf_counter()
+        fields = ("rotations", "scales", "sh_dc")
+        if not self.shape.update([tuple((_data_key(i, (f,)), getattr(i.splats, f)) for f in fields)
+                                  for i in items]):
+            return 0.0
+        self.gpu.set_texture("shape", self.shape.flat)
         self.stats.uploads += 1
         return time.perf_counter() - start
 
@@ -203,8 +214,7 @@ class ViewportRenderer:
         self.last_valid, self.next_valid = self.next_valid, {}
         seconds = time.perf_counter() - start
         seconds += self._upload_pos(items, valid)
-        seconds += self._texture("shape", items, packing.SHAPE_VALUES, ("rotations", "scales", "sh_dc"),
-                                 lambda i: packing.pack_shape(i.splats))
+        seconds += self._upload_shape(items)
         seconds += self._texture("sh", items, values, ("sh_rest",),
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
@@ -225,7 +235,7 @@ class ViewportRenderer:
             self.state.positions_token = token
             self.state.sorted_token = None  # the old order is stale: sort inline this frame
         self.state.radius_token = tuple(ident for ident, _ in radii)
-        self.stats.cpu_bytes = self.packs.end_frame() + self.pos.nbytes
+        self.stats.cpu_bytes = self.packs.end_frame() + self.pos.nbytes + self.shape.nbytes
         self.stats.total = sum(i.splats.count for i in items)
         if seconds:
             self.stats.upload_seconds = seconds

@@ -188,3 +188,20 @@ def test_shape_stage_matches_pack_shape_through_every_kind_of_change(testdata):
     items = step([items[0], changed_field(items[1], "scales", np.zeros_like(g.scales))], True)  # HALF_TINY
     items = step([replace(items[0], key=("a", 1)), items[1]], True)  # a new geometry version
     items = step([items[1], items[0]], True)  # another layout
+
+
+def test_halves_fast_is_halves_bit_for_bit():
+    """Every half and the float32 values at, beside and between consecutive halves (the
+    ties round to even), specials, and 4M random float32 bit patterns."""
+    every = np.arange(1 << 16, dtype=np.uint32).astype(np.uint16).view(np.float16).astype(np.float32)
+    h = np.unique(every[np.isfinite(every)])
+    mid = ((h[1:].astype(np.float64) + h[:-1]) / 2).astype(np.float32)  # exact in float32
+    up, down = np.float32(np.inf), np.float32(-np.inf)
+    values = [h, mid, np.nextafter(mid, up), np.nextafter(mid, down), np.nextafter(h, up), np.nextafter(h, down),
+              np.array([np.nan, -np.nan, np.inf, -np.inf, 65519.99, 65520.0, 1e30, -1e30, -0.0, 1e-45], np.float32),
+              np.random.default_rng(0).integers(0, 1 << 32, 4_000_000, dtype=np.uint64).astype(np.uint32)
+              .view(np.float32)]
+    x = np.concatenate(values)
+    np.testing.assert_array_equal(packing.halves_fast(x).view(np.uint32), packing.halves(x).view(np.uint32))
+    grid = x[:x.size // 4 * 4].reshape(-1, 4)  # any shape, not only 1-D
+    np.testing.assert_array_equal(packing.halves_fast(grid).view(np.uint32), packing.halves(grid).view(np.uint32))

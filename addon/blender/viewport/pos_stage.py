@@ -105,7 +105,7 @@ class ShapeStage:
             if rotation or size:
                 _columns(view, 3, packing.shape_scales(part[1][1], self.largest[k]))
             if colour:
-                _columns(view, 6, packing.halves(part[2][1]))
+                _columns(view, 6, packing.halves_fast(part[2][1]))
             changed |= rotation or size or colour
             self.sources[k] = part
             start += n

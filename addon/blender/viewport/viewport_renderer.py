@@ -226,7 +226,7 @@ class ViewportRenderer:
                               lambda i=i: centres_layout(i.splats.positions), key=_positions_key(i))
                for i in items]
         radii = [self.packs.get("radius", i, (i.splats.scales,),
-                                lambda i=i: bounding_radius(i.splats.scales), key=_positions_key(i))
+                                lambda i=i: bounding_radius(i.splats.scales), key=_data_key(i, ("scales",)))
                  for i in items]
         if self.packs.built != built:  # packing for the sort counts as upload work
             seconds += time.perf_counter() - start

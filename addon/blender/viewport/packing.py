@@ -70,8 +70,9 @@ def halves_fast(a: np.ndarray) -> np.ndarray:
     float16 one value at a time). Normal halves keep 11 significant bits: round the
     float32 mantissa at bit 13, to nearest even, on the bits. Below HALF_NORMAL, |x| + 0.5
     rounds to the float32 step there, 2^-24 = HALF_TINY, also to nearest even."""
-    out = np.nan_to_num(np.asarray(a, np.float32), nan=0.0, posinf=HALF_MAX, neginf=-HALF_MAX)
-    np.clip(out, -HALF_MAX, HALF_MAX, out=out)
+    out = np.array(a, np.float32)
+    np.clip(out, -HALF_MAX, HALF_MAX, out=out)  # infinities too; NaN stays NaN ...
+    np.copyto(out, np.float32(0.0), where=np.isnan(out))  # ... and becomes 0 here
     small = np.abs(out) < np.float32(HALF_NORMAL)
     tiny = out[small]
     bits = out.view(np.uint32)

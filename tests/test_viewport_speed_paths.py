@@ -205,3 +205,26 @@ def test_halves_fast_is_halves_bit_for_bit():
     np.testing.assert_array_equal(packing.halves_fast(x).view(np.uint32), packing.halves(x).view(np.uint32))
     grid = x[:x.size // 4 * 4].reshape(-1, 4)  # any shape, not only 1-D
     np.testing.assert_array_equal(packing.halves_fast(grid).view(np.uint32), packing.halves(grid).view(np.uint32))
+
+
+@pytest.mark.parametrize("field", ["sh_dc", "scales"])
+def test_a_colour_or_size_effect_re_uploads_the_shape_alone(testdata, gpu_ready, field):
+    """An effect's frame as items.py hands it: a new key, the untouched arrays named as
+    the base's own. A colour (SH DC) or size (scales) change sends the shape texture only
+    and draws what a fresh renderer draws."""
+    from addon.blender.viewport import ViewportRenderer
+
+    items, centre = two_objects(testdata)
+    everything = frozenset(("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"))
+    items = [replace(i, key=(name, 0), base_key=(name, 0), base_fields=everything)
+             for name, i in zip("ab", items)]
+    cam = camera_for(centre)
+    r = ViewportRenderer()
+    draw_offscreen(items, cam, renderer=r)
+    s = items[0].splats
+    changed = replace(items[0], splats=replace(s, **{field: getattr(s, field) * np.float32(0.7)}),
+                      key=("a", 0, "effect"), base_fields=everything - {field})
+    img, _ = draw_offscreen([changed, items[1]], cam, renderer=r)
+    shape = r.gpu.textures["shape"]
+    assert r.stats.frame_bytes == shape.width * shape.height * 8, "the shape texture alone (RGBA16F)"
+    assert psnr(img, draw_offscreen([changed, items[1]], cam)[0]) == float("inf")

@@ -107,7 +107,7 @@ class _Packs:
 
 
 def _positions_key(item: RenderItem):
-    return item.key if item.positions_key is None else item.positions_key
+    return _data_key(item, ("positions",)) if item.positions_key is None else item.positions_key
 
 
 def _data_key(item: RenderItem, fields: tuple):

@@ -1,7 +1,8 @@
-"""The viewport's scrubbing paths (issue 29): the pos texture kept on the CPU and
-rewritten per part (pos_stage), and the opacity-only update that rewrites the GPU
-texture's alpha channel in place. Each is pinned to what a full upload gives: the
-packing reference (packing.pack_pos), the texture's texels and the drawn pixels."""
+"""The viewport's scrubbing paths (issue 29): the pos and shape textures kept on the CPU
+and rewritten per part (staging.py), the opacity-only update that rewrites the GPU pos
+texture's alpha channel in place, drawable() a field at a time and halves_fast. Each is
+pinned to what it replaces: the packing references (pack_pos, pack_shape, drawable,
+halves), the uploaded texels and the drawn pixels of a full upload."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 from addon.blender.viewport import packing
-from addon.blender.viewport.pos_stage import ALL, ALPHA, NOTHING, PosStage, ShapeStage
+from addon.blender.viewport.staging import ALL, ALPHA, NOTHING, PosStage, ShapeStage
 from addon.core.formats import read
 from addon.core.scene import RenderItem
 from testing.viewport_scene import camera_for, draw_offscreen, psnr, two_objects
@@ -44,7 +45,7 @@ def _parts(items, valid):
     return [(i.key, i.splats.positions, i.key, i.splats.opacities, v) for i, v in zip(items, valid)]
 
 
-def test_pos_stage_matches_a_full_pack_through_every_kind_of_change(testdata):
+def test_staging_matches_a_full_pack_through_every_kind_of_change(testdata):
     capture = _with_undrawable(read(testdata / "test64.ply"), seed=1)
     guitar = read(testdata / "guitar.ply")
     items = [RenderItem(capture, key=("a", 0)), RenderItem(guitar, key=("b", 0))]

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .pos_stage import ALL, ALPHA, PosStage, ShapeStage
+from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept

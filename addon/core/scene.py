@@ -24,6 +24,10 @@ class RenderItem:
     key            identity for caches: (object name, geometry version); None = no caching
     positions_key  equal non-None keys mean bitwise-equal positions (a renderer may keep its
                    depth sort); None = unknown. Colour/opacity-only changes keep it.
+    base_key       the version of the data before effects and crop; None = unknown
+    base_fields    the SplatSet fields that are that data's own arrays, untouched: under an
+                   equal base_key the very same array holds the same values, so a renderer
+                   may keep what it uploaded of them while `key` changes with the effects
     """
 
     splats: SplatSet
@@ -34,6 +38,8 @@ class RenderItem:
     color_matrix: np.ndarray = field(default_factory=lambda: IDENTITY_COLOR.copy())
     key: tuple | None = None
     positions_key: tuple | None = None
+    base_key: tuple | None = None
+    base_fields: frozenset = frozenset()
 
     @property
     def effective_sh_degree(self) -> int:

@@ -74,17 +74,19 @@ def radix_argsort(keys: np.ndarray) -> np.ndarray:
 
 
 def far_to_near(depth: np.ndarray, bits: int = 16) -> np.ndarray:
-    """Positions of finite depths, farthest first; quantized over their own range.
+    """Positions of finite depths, farthest first, as uint32; quantized over their own range.
 
     The fast path for callers that already culled: no mask, float32 arithmetic for
     16-bit keys (24-bit mantissa > 16 key bits), float64 for 32-bit keys.
-    Ties: the earlier entry is drawn over the later one (draw_order).
+    Ties: the earlier entry is drawn over the later one (draw_order). The keys are
+    made from the reversed depths straight away, and the positions flipped back into
+    uint32 in one pass: no reversed copy, no second index-sized array.
     """
     if bits not in (16, 32):
         raise ValueError(f"key bits must be 16 or 32, not {bits}")
     d = np.asarray(depth)
     if d.size == 0:
-        return np.zeros(0, np.int64)
+        return np.zeros(0, np.uint32)
     hi, lo = float(d.max()), float(d.min())
     if not (np.isfinite(hi) and np.isfinite(lo)):
         raise ValueError("far_to_near needs finite depths (cull first)")
@@ -92,8 +94,9 @@ def far_to_near(depth: np.ndarray, bits: int = 16) -> np.ndarray:
     span = hi - lo
     scale = (top - 1) / span if span > 0 else 0.0
     ftype = np.float32 if bits == 16 else np.float64
-    k = np.subtract(ftype(hi), d, dtype=ftype)
+    k = np.subtract(ftype(hi), d[::-1], dtype=ftype)
     k *= ftype(scale)
     if bits == 32:  # float32 rounding stays below top (16 bits); float64 may not, clip
         np.clip(k, 0, top - 1, out=k)
-    return draw_order(k.astype(np.uint16 if bits == 16 else np.uint32))
+    order = radix_argsort(k.astype(np.uint16 if bits == 16 else np.uint32))
+    return np.subtract(d.size - 1, order, out=np.empty(d.size, np.uint32), casting="unsafe")

@@ -56,9 +56,10 @@ def bounding_radius(scales: np.ndarray) -> np.ndarray:
 @dataclass
 class SortResult:
     order: np.ndarray        # (M,) uint32 global splat indices, farthest first
-    seconds: float           # CPU time of the cull + sort
+    seconds: float           # wall time of the cull + sort
     token: object = None     # what the caller asked for (view + data versions)
     radius_dependent: bool = False  # the frustum test removed splats: other radii may not
+    cpu_seconds: float = 0.0  # the sorting thread's CPU time (a loaded machine adds wall time only)
 
 
 def _rows(m: np.ndarray, projection: np.ndarray, cull: bool) -> np.ndarray:
@@ -140,7 +141,7 @@ def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, 
     Kept: centres with near < depth <= far and, when culling, inside the frustum
     grown by `dilation` (|x|, |y| <= (1 + dilation) w in clip space).
     """
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.thread_time()
     depths, indices = [], []
     offset = 0
     radius_dependent = False
@@ -155,14 +156,15 @@ def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, 
         indices.append(idx if idx is None or not offset else idx + np.int32(offset))
         offset += n
     if not depths:
-        return SortResult(np.zeros(0, np.uint32), time.perf_counter() - start)
+        return SortResult(np.zeros(0, np.uint32), time.perf_counter() - start,
+                          cpu_seconds=time.thread_time() - cpu)
     depth = np.concatenate(depths) if len(depths) > 1 else depths[0]
     order = far_to_near(depth, bits)
     if indices[0] is not None or len(indices) > 1:
         index = np.concatenate(indices) if len(indices) > 1 else indices[0]
-        order = index[order]
-    return SortResult(order.astype(np.uint32), time.perf_counter() - start,
-                      radius_dependent=radius_dependent)
+        order = index.view(np.uint32)[order]  # int32 indices, all >= 0: the same bits
+    return SortResult(order, time.perf_counter() - start, radius_dependent=radius_dependent,
+                      cpu_seconds=time.thread_time() - cpu)
 
 
 class SortWorker:

@@ -127,6 +127,7 @@ class BaseCache:
 
 
 _BASE = BaseCache()
+SPLAT_FIELDS = frozenset(("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"))
 
 
 def base_splats(obj_eval, depsgraph):
@@ -173,7 +174,8 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     settings = getattr(obj_eval, "splatline", None)
     if settings is None:
         key = (name, base_key)
-        return RenderItem(splats=replace(base), world=world, key=key, positions_key=key)
+        return RenderItem(splats=replace(base), world=world, key=key, positions_key=key,
+                          base_key=key, base_fields=SPLAT_FIELDS)
     look = settings.look
     box, sphere = _crop(look)
     splats = core_look.apply_crop(base, box, sphere)
@@ -190,7 +192,8 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
         opacity_scale=float(look.opacity) if look.visible else 0.0, sh_degree=int(look.max_sh_degree),
         color_matrix=core_look.color_matrix(tuple(look.tint), look.exposure, look.saturation,
                                             look.hue),
-        key=key, positions_key=positions_key)
+        key=key, positions_key=positions_key, base_key=(name, base_key),
+        base_fields=frozenset(f for f in SPLAT_FIELDS if getattr(result.splats, f) is getattr(base, f)))
 
 
 def stored_as_is(obj_eval) -> bool:

@@ -16,6 +16,7 @@ every backend.
 from __future__ import annotations
 
 import pathlib
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -101,8 +102,37 @@ def float_texture(flat: np.ndarray, fmt: str, width: int = WIDTH):
     return gpu.types.GPUTexture((width, texels // width), format=fmt, data=buf)
 
 
+def alpha_shader():
+    """Writes an R32F texture's values into the alpha of the bound target (colour mask)."""
+    info = gpu.types.GPUShaderCreateInfo()
+    info.sampler(0, "FLOAT_2D", "alpha_tex")
+    info.vertex_in(0, "VEC2", "corner")
+    info.fragment_out(0, "VEC4", "frag_color")
+    info.vertex_source(_source("viewport_preprocess_vert.glsl"))
+    info.fragment_source("void main()\n{\n  frag_color = vec4(0.0, 0.0, 0.0, "
+                         "texelFetch(alpha_tex, ivec2(gl_FragCoord.xy), 0).r);\n}\n")
+    return _create(info)
+
+
 def texture_bytes(texture) -> int:
     return texture.width * texture.height * TEXEL_BYTES[texture.format]
+
+
+@contextmanager
+def _pass_state():
+    """A full-target pass with no depth test and no blending; the caller's viewport,
+    scissor, depth test and blending are put back afterwards."""
+    viewport, scissor = gpu.state.viewport_get(), gpu.state.scissor_get()
+    depth_test, blend = gpu.state.depth_test_get(), gpu.state.blend_get()
+    gpu.state.depth_test_set("NONE")
+    gpu.state.blend_set("NONE")
+    try:
+        yield
+    finally:
+        gpu.state.viewport_set(*viewport)
+        gpu.state.scissor_set(*scissor)
+        gpu.state.depth_test_set(depth_test)
+        gpu.state.blend_set(blend)
 
 
 class SplatGPU:
@@ -122,24 +152,62 @@ class SplatGPU:
         self.version = 0           # bumped by every upload: the records go stale
         self.records_for = None    # (version, constants) the records were made for
         self.preprocesses = 0      # preprocess passes run so far
+        self.uploaded = 0          # bytes sent to the GPU so far (textures, alpha updates)
+        self._order_values = np.zeros(0, np.float32)  # kept: no full-size allocation a sort
+        self._alpha = None         # (shader, batch) of set_alpha
+        self._alpha_target = None  # (texture, framebuffer) set_alpha last wrote
+
+    def _upload(self, name: str, flat: np.ndarray, fmt: str, width: int = WIDTH) -> None:
+        if self._alpha_target is not None and self._alpha_target[0] is self.textures.get(name):
+            self._alpha_target = None  # let the replaced texture go
+        self.textures[name] = float_texture(flat, fmt, width)
+        self.uploaded += texture_bytes(self.textures[name])
+        self.version += 1
 
     def set_texture(self, name: str, flat: np.ndarray) -> None:
-        self.textures[name] = float_texture(flat, FORMATS[name])
+        self._upload(name, flat, FORMATS[name])
+
+    def set_alpha(self, name: str, values: np.ndarray) -> None:
+        """Replace the alpha channel of RGBA32F texture `name` in place on the GPU with
+        `values` (one float32 per texel, the texture's size): a quarter of the bytes of
+        re-uploading it. The gpu module cannot write into a texture from the CPU, so the
+        values go up as a temporary R32F texture and a colour-masked pass copies them."""
+        target = self.textures[name]
+        source = float_texture(values, "R32F", target.width)
+        self.uploaded += texture_bytes(source)
+        if self._alpha is None:
+            shader = alpha_shader()
+            self._alpha = (shader, batch_for_shader(shader, "TRI_STRIP", {"corner": CORNERS}))
+        if self._alpha_target is None or self._alpha_target[0] is not target:
+            self._alpha_target = (target, gpu.types.GPUFrameBuffer(color_slots=(target,)))
+        shader, batch = self._alpha
+        with _pass_state(), self._alpha_target[1].bind():
+            gpu.state.viewport_set(0, 0, target.width, target.height)
+            gpu.state.scissor_set(0, 0, target.width, target.height)
+            gpu.state.color_mask_set(False, False, False, True)
+            try:
+                shader.bind()
+                shader.uniform_sampler("alpha_tex", source)
+                batch.draw(shader)
+            finally:
+                gpu.state.color_mask_set(True, True, True, True)
         self.version += 1
 
     def set_order(self, order: np.ndarray) -> None:
         if order.size and int(order.max()) >= 1 << 24:
             raise ValueError("more than 2^24 splats: indices no longer exact in an R32F texture")
-        values = np.zeros(padded(max(1, order.size)), np.float32)
+        size = padded(max(1, order.size))
+        if self._order_values.size < size:
+            self._order_values = np.zeros(size, np.float32)
+        values = self._order_values[:size]
         values[:order.size] = order
-        self.textures["order"] = float_texture(values, "R32F")
+        values[order.size:] = 0.0
+        self._upload("order", values, "R32F")
         self.order_count = int(order.size)
-        self.version += 1
 
     def set_objects(self, table: np.ndarray, count: int) -> None:
-        self.textures["objects"] = float_texture(table, "RGBA32F", table.shape[0])
+        self._upload("objects", table, "RGBA32F", table.shape[0])
         self.object_count = count
-        self.version += 1
 
     @property
     def nbytes(self) -> int:
@@ -174,24 +242,14 @@ class SplatGPU:
         key = (self.version, tuple((k, tuple(v)) for k, v in constants.items()))
         if self.records_for == key:
             return
-        viewport, scissor = gpu.state.viewport_get(), gpu.state.scissor_get()
-        depth_test, blend = gpu.state.depth_test_get(), gpu.state.blend_get()
-        gpu.state.depth_test_set("NONE")
-        gpu.state.blend_set("NONE")
-        try:
-            with self.framebuffer.bind():
-                gpu.state.viewport_set(0, 0, WIDTH, rows)
-                gpu.state.scissor_set(0, 0, WIDTH, rows)
-                self._bind(self.pre_shader, constants)
-                for name in ("pos", "shape", "sh", "order"):
-                    self.pre_shader.uniform_sampler(f"{name}_tex", self.textures[name])
-                self.pre_shader.uniform_sampler("object_tex", self.textures["objects"])
-                self.pre_batch.draw(self.pre_shader)
-        finally:
-            gpu.state.viewport_set(*viewport)
-            gpu.state.scissor_set(*scissor)
-            gpu.state.depth_test_set(depth_test)
-            gpu.state.blend_set(blend)
+        with _pass_state(), self.framebuffer.bind():
+            gpu.state.viewport_set(0, 0, WIDTH, rows)
+            gpu.state.scissor_set(0, 0, WIDTH, rows)
+            self._bind(self.pre_shader, constants)
+            for name in ("pos", "shape", "sh", "order"):
+                self.pre_shader.uniform_sampler(f"{name}_tex", self.textures[name])
+            self.pre_shader.uniform_sampler("object_tex", self.textures["objects"])
+            self.pre_batch.draw(self.pre_shader)
         self.records_for = key
         self.preprocesses += 1
 

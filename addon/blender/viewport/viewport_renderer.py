@@ -17,6 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
+from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
@@ -57,6 +58,9 @@ class Stats:
     sorts: int = 0               # orders computed and uploaded
     uploads: int = 0             # splat data texture uploads
     table_uploads: int = 0       # per-object table uploads (matrices, display options)
+    alpha_uploads: int = 0       # of the uploads, opacity-only updates of the pos texture
+    frame_bytes: int = 0         # this draw's bytes sent to the GPU
+    frame_sort_cpu: float = 0.0  # frame_sort in the sorting thread's CPU time
     frame_sort: float = 0.0      # this draw's sort time on the drawing thread
     frame_upload: float = 0.0    # this draw's packing + texture uploads (data, order, table)
 
@@ -103,7 +107,16 @@ class _Packs:
 
 
 def _positions_key(item: RenderItem):
-    return item.key if item.positions_key is None else item.positions_key
+    return _data_key(item, ("positions",)) if item.positions_key is None else item.positions_key
+
+
+def _data_key(item: RenderItem, fields: tuple):
+    """The key to file what is built from these SplatSet fields under: the base data's
+    version while they are all its own arrays (an effect playing changes item.key every
+    frame but leaves them alone), else the item's key."""
+    if item.base_key is not None and item.base_fields.issuperset(fields):
+        return item.base_key
+    return item.key
 
 
 class ViewportRenderer:
@@ -112,6 +125,8 @@ class ViewportRenderer:
         self.stats = Stats()
         self.state = _State()
         self.packs = _Packs()
+        self.pos, self.shape = PosStage(), ShapeStage()
+        self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
         self.worker = SortWorker(on_sorted) if worker else None
 
     def close(self) -> None:
@@ -121,13 +136,16 @@ class ViewportRenderer:
         self.gpu = None
         self.state = _State()
         self.packs = _Packs()
+        self.pos, self.shape = PosStage(), ShapeStage()
+        self.last_valid, self.next_valid = {}, {}
 
     # -- data ---------------------------------------------------------------
-    def _texture(self, name, items, per_splat, sources, build, extra=()):
-        """Upload texture `name` if any object's sources changed; returns seconds spent.
-        per_splat: values per splat of the stream (4 for the one-texel-a-splat pos)."""
+    def _texture(self, name, items, per_splat, fields, build, extra=()):
+        """Upload texture `name` if any object's source fields changed; returns seconds
+        spent. per_splat: values per splat of the stream."""
         start = time.perf_counter()
-        got = [self.packs.get(name, i, src, lambda i=i: build(i), extra) for i, src in zip(items, sources)]
+        got = [self.packs.get(name, i, tuple(getattr(i.splats, f) for f in fields), lambda i=i: build(i), extra,
+                              key=_data_key(i, fields)) for i in items]
         token = tuple(ident for ident, _ in got)
         if self.state.tokens.get(name) == token:
             return 0.0
@@ -138,11 +156,52 @@ class ViewportRenderer:
         self.stats.uploads += 1
         return time.perf_counter() - start
 
+    def _upload_shape(self, items) -> float:
+        """The shape texture, its rotation, scale and colour parts rewritten apart."""
+        start = time.perf_counter()
+        fields = ("rotations", "scales", "sh_dc")
+        if not self.shape.update([tuple((_data_key(i, (f,)), getattr(i.splats, f)) for f in fields)
+                                  for i in items]):
+            return 0.0
+        self.gpu.set_texture("shape", self.shape.flat)
+        self.stats.uploads += 1
+        return time.perf_counter() - start
+
+    def _upload_pos(self, items, valid) -> float:
+        """The pos texture: kept when its sources are, its alpha channel alone rewritten
+        when only opacities (or drawability) changed; returns seconds spent."""
+        start = time.perf_counter()
+        change = self.pos.update([(_positions_key(i), i.splats.positions, _data_key(i, ("opacities",)),
+                                   i.splats.opacities, v) for i, v in zip(items, valid)])
+        if change == ALPHA and "pos" in self.gpu.textures:
+            self.gpu.set_alpha("pos", self.pos.alpha)
+            self.stats.alpha_uploads += 1
+        elif change == ALL or (change == ALPHA and "pos" not in self.gpu.textures):
+            self.gpu.set_texture("pos", self.pos.flat)
+        else:
+            return 0.0
+        self.stats.uploads += 1
+        return time.perf_counter() - start
+
     def _valid(self, item, degree) -> np.ndarray:
-        """packing.drawable, cached apart from the opacities an effect changes each frame."""
+        """packing.drawable, a field at a time: each part is kept while its field is (a
+        colour effect recomputes the SH DC test alone), and an unchanged result is the
+        previous array itself, so the pos texture's alpha is not rewritten for it."""
         s = item.splats
-        return self.packs.get("valid", item, (s.rotations, s.scales, s.sh_dc, s.sh_rest),
-                              lambda: packing.drawable(s, degree), extra=(degree,))[1]
+        tests = (("rotations", packing.rotation_rows), ("scales", packing.finite_rows),
+                 ("sh_dc", packing.finite_rows))
+        parts = [self.packs.get(f"ok_{f}", item, (getattr(s, f),), lambda f=f, t=t: t(getattr(s, f)),
+                                key=_data_key(item, (f,)))[1] for f, t in tests]
+        parts.append(self.packs.get("ok_sh_rest", item, (s.sh_rest,), lambda: packing.rest_rows(s, degree),
+                                    extra=(degree,), key=_data_key(item, ("sh_rest",)))[1])
+        # the parts are this renderer's own arrays, never written: their identity is their value
+        slot = _data_key(item, ())
+        valid = self.packs.get("valid", item, tuple(parts), lambda: np.logical_and.reduce(parts), key=slot)[1]
+        last = self.last_valid.get(slot)
+        if last is not None and last is not valid and np.array_equal(last, valid):
+            valid = last
+        self.next_valid[slot] = valid
+        return valid
 
     def _update_data(self, items, displays) -> list:
         """Upload changed data textures; returns each item's positions (3, N) for sorting."""
@@ -152,15 +211,11 @@ class ViewportRenderer:
         by_item = dict(zip(map(id, items), degrees))
         start = time.perf_counter()
         valid = [self._valid(i, g) for i, g in zip(items, degrees)]
-        by_valid = dict(zip(map(id, items), valid))
+        self.last_valid, self.next_valid = self.next_valid, {}
         seconds = time.perf_counter() - start
-        seconds += self._texture("pos", items, 4,
-                                 [(i.splats.positions, i.splats.opacities, v) for i, v in zip(items, valid)],
-                                 lambda i: packing.pack_pos(i.splats, by_valid[id(i)]))
-        seconds += self._texture("shape", items, packing.SHAPE_VALUES,
-                                 [(i.splats.rotations, i.splats.scales, i.splats.sh_dc) for i in items],
-                                 lambda i: packing.pack_shape(i.splats))
-        seconds += self._texture("sh", items, values, [(i.splats.sh_rest,) for i in items],
+        seconds += self._upload_pos(items, valid)
+        seconds += self._upload_shape(items)
+        seconds += self._texture("sh", items, values, ("sh_rest",),
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
         self.gpu.sh_values = values
@@ -171,7 +226,7 @@ class ViewportRenderer:
                               lambda i=i: centres_layout(i.splats.positions), key=_positions_key(i))
                for i in items]
         radii = [self.packs.get("radius", i, (i.splats.scales,),
-                                lambda i=i: bounding_radius(i.splats.scales), key=_positions_key(i))
+                                lambda i=i: bounding_radius(i.splats.scales), key=_data_key(i, ("scales",)))
                  for i in items]
         if self.packs.built != built:  # packing for the sort counts as upload work
             seconds += time.perf_counter() - start
@@ -180,7 +235,7 @@ class ViewportRenderer:
             self.state.positions_token = token
             self.state.sorted_token = None  # the old order is stale: sort inline this frame
         self.state.radius_token = tuple(ident for ident, _ in radii)
-        self.stats.cpu_bytes = self.packs.end_frame()
+        self.stats.cpu_bytes = self.packs.end_frame() + self.pos.nbytes + self.shape.nbytes
         self.stats.total = sum(i.splats.count for i in items)
         if seconds:
             self.stats.upload_seconds = seconds
@@ -220,6 +275,7 @@ class ViewportRenderer:
             result = visible_order(inputs, projection, near, far, bits)
             result.token = token
             self.stats.frame_sort += result.seconds
+            self.stats.frame_sort_cpu += result.cpu_seconds
             self._upload_order(result)
         elif not self._same_view(token, self.state.pending_token):
             self.state.pending_token = token
@@ -259,7 +315,7 @@ class ViewportRenderer:
         """
         from .gpu_draw import SplatGPU
 
-        self.stats.frame_sort = self.stats.frame_upload = 0.0
+        self.stats.frame_sort = self.stats.frame_upload = self.stats.frame_sort_cpu = 0.0
         keep = [k for k, i in enumerate(items) if i.splats.count]
         if not keep:
             self.stats.total = self.stats.drawn = 0
@@ -268,6 +324,7 @@ class ViewportRenderer:
         items = [items[k] for k in keep]
         if self.gpu is None:
             self.gpu = SplatGPU()
+        uploaded = self.gpu.uploaded
         width, height = int(viewport_size[0]), int(viewport_size[1])
         const = packing.view_constants(projection_matrix, width, height, antialiased=settings.antialiased,
                                capped_extent=settings.capped_extent,
@@ -279,6 +336,7 @@ class ViewportRenderer:
         self._update_order(items, soa, displays, l2c, projection_matrix, near, far, settings)
         self._update_objects(items, displays, l2c, bool(const["flags"][0]))
         self.stats.gpu_bytes = self.gpu.nbytes
+        self.stats.frame_bytes = self.gpu.uploaded - uploaded
         return const
 
     def _update_objects(self, items, displays, l2c, ortho) -> None:

@@ -109,7 +109,7 @@ def test_a_reveal_without_shrink_or_glow_reaches_the_viewport_as_an_opacity_chan
     """What the effect evaluation hands the viewport: a Reveal that only fades keeps the
     base positions array and the positions key, so scrubbing it uploads the alpha alone."""
     from addon.blender.viewport import ViewportRenderer
-    from animation_scene import add_object, grid_splats, items_at
+    from testing.animation_scene import add_object, grid_splats, items_at
 
     bpy = bpy_empty
     obj = add_object("capture", grid_splats(n_side=8))

@@ -20,6 +20,7 @@ import bpy
 
 from ...core import look as core_look
 from ...core.effects import evaluate_stack
+from ...core.effects.recycle import BUFFERS
 from ...core.scene import RenderItem
 from . import effect_params
 from ..registration import app_handlers
@@ -212,6 +213,7 @@ def _on_depsgraph_update(_scene, depsgraph):
 def _on_load(*_args):
     _BASE.clear()
     effect_params.TARGETS.clear()
+    BUFFERS.clear()  # kept output buffers (a morph's sh_rest) of the old file's splats
 
 
 _HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _on_depsgraph_update),

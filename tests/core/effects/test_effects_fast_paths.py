@@ -17,6 +17,7 @@ import pytest
 from testing import effects_reference as ref
 from addon.core.effects import (Displace, Explode, Grade, Morph, Reveal, Twist, apply_effect,
                                 common, evaluate_stack, noise)
+from addon.core.effects import morph, recycle
 from addon.core.effects.lattice import LATTICES
 from addon.core.effects.morph import SLERPS, slerp
 from addon.core.formats import read
@@ -165,10 +166,17 @@ def target_of(capture) -> SplatSet:
 
 
 @pytest.mark.parametrize("threads", (1, 2))
-def test_slerp_and_morph_match_the_reference(capture, monkeypatch, threads):
+@pytest.mark.parametrize("recycled", (False, True))
+def test_slerp_and_morph_match_the_reference(capture, monkeypatch, threads, recycled):
     """Memoized setup, per-block weights: nearly equal pairs (nlerp), opposite hemispheres
-    and general pairs, at amounts across (0, 1), repeated (the memo's hit)."""
+    and general pairs, at amounts across (0, 1), repeated (the memo's hit). Recycled: every
+    lerp's output in a recycle.BUFFERS buffer (as sh_rest is at a million splats), reused
+    from the third amount on (the previous result is still held)."""
     monkeypatch.setattr(common, "THREADS", threads)
+    if recycled:
+        monkeypatch.setattr(recycle, "MIN_BYTES", 0)
+        monkeypatch.setattr(recycle, "BUFFERS", recycle.Recycler(size=16))
+        monkeypatch.setattr(morph, "BUFFERS", recycle.BUFFERS)
     target = target_of(capture)
     q1 = target.rotations.copy()
     q1[:1000] = capture.rotations[:1000]           # the same rotation: nlerp
@@ -176,12 +184,15 @@ def test_slerp_and_morph_match_the_reference(capture, monkeypatch, threads):
     SLERPS.clear()
     for t in (0.0, 1e-4, 0.25, 0.5, 0.77, 0.999, 0.25):
         assert_bits(slerp(capture.rotations, q1, t), ref.slerp(capture.rotations, q1, t))
-    for amount in (0.1, 0.5, 0.9):
+    bases = set()
+    for amount in (0.1, 0.5, 0.9, 0.3):
         got = evaluate_stack(capture, [Morph(target=target, amount=amount)], 0.0).splats
+        bases.add(id(got.sh_rest.base))
         assert_bits(got.rotations, ref.slerp(capture.rotations, target.rotations, amount))
         for f in ("positions", "scales", "opacities", "sh_dc", "sh_rest"):
             a, b = getattr(capture, f), getattr(target, f)
             assert_bits(getattr(got, f), a + (b - a) * np.float32(amount))
+    assert len(bases) == 2 if recycled else bases == {id(None)}
 
 
 def test_two_threads_give_the_one_thread_splats(capture, monkeypatch):

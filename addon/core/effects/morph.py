@@ -99,11 +99,10 @@ def _lerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
 class SlerpSetup:
     """What slerp computes from the two rotation sets alone, not from t."""
     a: list          # q0's four contiguous columns
-    b: list          # q1's, turned onto q0's hemisphere by `sign` in the weights
+    b: list          # q1's, turned onto q0's hemisphere (times the sign of q0.q1: exact)
     theta: np.ndarray
     sin: np.ndarray  # sin(theta), 1 where the pair nearly coincides
-    near: np.ndarray # indices of those pairs (nlerp weights)
-    sign: np.ndarray
+    near: np.ndarray # indices of those pairs (nlerp weights), ascending
 
 
 def slerp_setup(q0: np.ndarray, q1: np.ndarray) -> SlerpSetup:
@@ -112,14 +111,16 @@ def slerp_setup(q0: np.ndarray, q1: np.ndarray) -> SlerpSetup:
     for i in range(1, 4):
         dot += a[i] * b[i]
     sign = np.copysign(F32(1.0), dot)
+    for col in b:
+        col *= sign  # b (w1 sign) = (b sign) w1 bit for bit: a product's sign is its own
     np.abs(dot, out=dot)
     np.minimum(dot, F32(1.0), out=dot)
     theta = np.arccos(dot)
     sin = np.sin(theta)
     near = sin < 1e-5
     sin[near] = 1.0
-    setup = SlerpSetup(a, b, theta, sin, np.flatnonzero(near), sign)
-    for array in (*a, *b, theta, sin, setup.near, sign):
+    setup = SlerpSetup(a, b, theta, sin, np.flatnonzero(near))
+    for array in (*a, *b, theta, sin, setup.near):
         array.flags.writeable = False
     return setup
 
@@ -136,26 +137,34 @@ def slerp(q0: np.ndarray, q1: np.ndarray, t: float) -> np.ndarray:
 
 
 def _slerp_block(setup: SlerpSetup, t: float, part: slice, out: np.ndarray) -> None:
+    """The reference slerp's float32 operations on rows `part`, with fewer temporaries."""
     theta, sin = setup.theta[part], setup.sin[part]
-    w0 = np.sin(theta * F32(1.0 - t))
+    w0 = np.multiply(theta, F32(1.0 - t))
+    np.sin(w0, out=w0)
     w0 /= sin
-    w1 = np.sin(theta * F32(t))
+    w1 = np.multiply(theta, F32(t))
+    np.sin(w1, out=w1)
     w1 /= sin
-    near = setup.near[(setup.near >= part.start) & (setup.near < part.stop)] - part.start
-    w0[near] = 1.0 - t
-    w1[near] = t
-    w1 *= setup.sign[part]
-    norm = np.zeros_like(w0)
-    a = []
+    low, high = np.searchsorted(setup.near, (part.start, part.stop))
+    if high > low:
+        near = setup.near[low:high] - part.start
+        w0[near] = 1.0 - t
+        w1[near] = t
+    cols, term, norm = [], np.empty_like(w0), None
     for qa, qb in zip(setup.a, setup.b):
         col = qa[part] * w0
-        col += qb[part] * w1
-        norm += col * col
-        a.append(col)
+        np.multiply(qb[part], w1, out=term)
+        col += term
+        if norm is None:
+            norm = col * col  # = 0 + col * col, the reference's first sum: squares are >= +0
+        else:
+            np.multiply(col, col, out=term)
+            norm += term
+        cols.append(col)
     np.sqrt(norm, out=norm)
     np.maximum(norm, F32(1e-12), out=norm)
     np.divide(F32(1.0), norm, out=norm)
-    for i, col in enumerate(a):
+    for i, col in enumerate(cols):
         np.multiply(col, norm, out=out[part, i])
 
 

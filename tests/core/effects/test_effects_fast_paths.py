@@ -193,6 +193,8 @@ def test_slerp_and_morph_match_the_reference(capture, testdata, monkeypatch, thr
     q1 = target.rotations.copy()
     q1[:1000] = source.rotations[:1000]           # the same rotation: nlerp
     q1[1000:2000] = -source.rotations[1000:2000]  # the same, other hemisphere
+    later = slice(3 * common.BLOCK - 200, 3 * common.BLOCK + 300)  # nlerp across blocks
+    q1[later] = source.rotations[later]
     SLERPS.clear()
     for t in (0.0, 1e-4, 0.25, 0.5, 0.77, 0.999, 0.25):
         assert_bits(slerp(source.rotations, q1, t), ref.slerp(source.rotations, q1, t))

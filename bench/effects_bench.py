@@ -194,7 +194,9 @@ def main(argv=None) -> None:
           " (cold; the centres' lattice cells and weights are memoized, lattice.py), and a blend"
           " when it is memoized (warm); rotations (spin, twist) and morph's slerp weights are"
           " transcendental-bound (sin, cos per splat; slerp's angles are memoized per pair);"
-          " morph's lerp of sh_rest (180 MB) is bandwidth-bound. Block loops run on two threads:"
+          " morph's lerp of sh_rest (180 MB) is bandwidth-bound: one read of each input and a"
+          " write into a recycled buffer (recycle.py; fresh pages cost the system's zeroing"
+          " on first touch, 13 ms per 180 MB). Block loops run on two threads:"
           " wall < CPU on two free cores, wall > CPU while the cores are shared.")
 
 

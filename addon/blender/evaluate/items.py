@@ -20,6 +20,8 @@ import bpy
 
 from ...core import look as core_look
 from ...core.effects import evaluate_stack
+from ...core.effects.common import stop_helper
+from ...core.effects.recycle import BUFFERS
 from ...core.scene import IDENTITY_COLOR, RenderItem
 from . import effect_params
 from ..registration import app_handlers
@@ -233,9 +235,15 @@ def _on_depsgraph_update(_scene, depsgraph):
 def _on_load(*_args):
     _BASE.clear()
     effect_params.TARGETS.clear()
+    BUFFERS.clear()  # kept output buffers (a morph's sh_rest) of the old file's splats
 
 
 _HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _on_depsgraph_update),
              (bpy.app.handlers.load_pre, _on_load))
 
-register, unregister = app_handlers(_HANDLERS, on_unregister=_on_load)
+def _on_unregister():
+    _on_load()
+    stop_helper()  # the effects' block thread (core/effects/common.for_blocks)
+
+
+register, unregister = app_handlers(_HANDLERS, on_unregister=_on_unregister)

@@ -130,6 +130,16 @@ def _helper() -> ThreadPoolExecutor:
         return _POOL
 
 
+def stop_helper() -> None:
+    """End the helper thread (the extension's unregister: no thread outlives it); the next
+    for_blocks starts a new one."""
+    global _POOL
+    with _POOL_LOCK:
+        pool, _POOL = _POOL, None
+    if pool is not None:
+        pool.shutdown(wait=True)
+
+
 THREADS = 2 if (os.cpu_count() or 1) > 1 else 1   # 1: every block on the calling thread
 _POOL = None
 _POOL_LOCK = threading.Lock()

@@ -10,6 +10,7 @@ of common.BLOCK rows and the two-thread path runs.
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ import pytest
 from testing import effects_reference as ref
 from addon.core.effects import (Displace, Explode, Grade, Morph, Reveal, Twist, apply_effect,
                                 common, evaluate_stack, noise)
+from addon.core.effects import morph, recycle
 from addon.core.effects.lattice import LATTICES
 from addon.core.effects.morph import SLERPS, slerp
 from addon.core.formats import read
@@ -164,24 +166,47 @@ def target_of(capture) -> SplatSet:
     return frozen(map_into(capture, m))
 
 
+def with_sh_rest(capture, testdata) -> SplatSet:
+    """The capture at degree 3: test64.ply's real SH coefficients, repeated over its splats
+    (guitar.ply has none), so the lerp of sh_rest has data to blend."""
+    rest = read(testdata / "test64.ply").sh_rest
+    return frozen(replace(capture, sh_rest=np.resize(rest, (capture.count,) + rest.shape[1:])))
+
+
 @pytest.mark.parametrize("threads", (1, 2))
-def test_slerp_and_morph_match_the_reference(capture, monkeypatch, threads):
+@pytest.mark.parametrize("recycled", (False, True))
+@pytest.mark.parametrize("block_bytes", (morph.LERP_BYTES, 4096))
+def test_slerp_and_morph_match_the_reference(capture, testdata, monkeypatch, threads, recycled,
+                                             block_bytes):
     """Memoized setup, per-block weights: nearly equal pairs (nlerp), opposite hemispheres
-    and general pairs, at amounts across (0, 1), repeated (the memo's hit)."""
+    and general pairs, at amounts across (0, 1), repeated (the memo's hit). Recycled: every
+    lerp's output in a recycle.Recycler buffer (as sh_rest is from 32 MB on), reused from
+    the third amount on (the previous result is still held); else all fresh arrays. Small blocks: every
+    array's lerp in many blocks (on two threads too), not only sh_rest's."""
     monkeypatch.setattr(common, "THREADS", threads)
-    target = target_of(capture)
+    monkeypatch.setattr(morph, "LERP_BYTES", block_bytes)
+    monkeypatch.setattr(recycle, "MIN_BYTES", 0 if recycled else 1 << 62)  # else: np.empty
+    monkeypatch.setattr(morph, "BUFFERS", recycle.Recycler(size=16))
+    source = with_sh_rest(capture, testdata)
+    target = target_of(source)
+    assert source.sh_degree == 3 and not np.array_equal(source.sh_rest, target.sh_rest)
     q1 = target.rotations.copy()
-    q1[:1000] = capture.rotations[:1000]           # the same rotation: nlerp
-    q1[1000:2000] = -capture.rotations[1000:2000]  # the same, other hemisphere
+    q1[:1000] = source.rotations[:1000]           # the same rotation: nlerp
+    q1[1000:2000] = -source.rotations[1000:2000]  # the same, other hemisphere
+    later = slice(3 * common.BLOCK - 200, 3 * common.BLOCK + 300)  # nlerp across blocks
+    q1[later] = source.rotations[later]
     SLERPS.clear()
     for t in (0.0, 1e-4, 0.25, 0.5, 0.77, 0.999, 0.25):
-        assert_bits(slerp(capture.rotations, q1, t), ref.slerp(capture.rotations, q1, t))
-    for amount in (0.1, 0.5, 0.9):
-        got = evaluate_stack(capture, [Morph(target=target, amount=amount)], 0.0).splats
-        assert_bits(got.rotations, ref.slerp(capture.rotations, target.rotations, amount))
+        assert_bits(slerp(source.rotations, q1, t), ref.slerp(source.rotations, q1, t))
+    bases = set()
+    for amount in (0.1, 0.5, 0.9, 0.3):
+        got = evaluate_stack(source, [Morph(target=target, amount=amount)], 0.0).splats
+        bases.add(id(got.sh_rest.base))
+        assert_bits(got.rotations, ref.slerp(source.rotations, target.rotations, amount))
         for f in ("positions", "scales", "opacities", "sh_dc", "sh_rest"):
-            a, b = getattr(capture, f), getattr(target, f)
+            a, b = getattr(source, f), getattr(target, f)
             assert_bits(getattr(got, f), a + (b - a) * np.float32(amount))
+    assert len(bases) == 2 if recycled else bases == {id(None)}
 
 
 def test_two_threads_give_the_one_thread_splats(capture, monkeypatch):

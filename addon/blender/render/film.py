@@ -12,6 +12,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...core.camera import Camera
+from ...core.colorspace import composite_over_in_place, premultiplied_srgb_to_linear_into
+
+BLOCK_VALUES = 1 << 16  # floats per block of rows: 256 KiB, so each step's temporaries stay in cache
 
 # Cycles writes this for pixels that never hit anything; compositors expect a finite value.
 BACKGROUND_DEPTH = 1e10
@@ -20,12 +23,38 @@ BACKGROUND_DEPTH = 1e10
 def blender_depth(depth: np.ndarray) -> np.ndarray:
     """View depth with Blender's background value where no splat reached alpha 0.5."""
     depth = np.asarray(depth, np.float32)
-    return np.where(np.isfinite(depth), depth, np.float32(BACKGROUND_DEPTH)).astype(np.float32)
+    return np.where(np.isfinite(depth), depth, np.float32(BACKGROUND_DEPTH)).astype(np.float32, copy=False)
 
 
 def bottom_up(image: np.ndarray) -> np.ndarray:
     """Top-down rows (renderers) -> a flat, contiguous bottom-up buffer (Blender's rect)."""
     return np.ascontiguousarray(image[::-1]).ravel()
+
+
+def result_rect(rgba: np.ndarray, background=None, srgb: bool = True) -> np.ndarray:
+    """A renderer's top-down premultiplied RGBA -> the Combined pass's rect: flat, bottom-up,
+    scene-linear, over the world's colour where background is given (else as it is).
+
+    srgb: rgba is display sRGB (a renderer's output) and is decoded; False: it is already
+    scene-linear (motion blur's average). The same float32 steps as
+    bottom_up(composite_over(premultiplied_srgb_to_linear(rgba), background)), bit for bit,
+    done a few rows at a time into the one output array: at 1080p the whole-frame steps
+    made five frame-sized temporaries and ran from memory."""
+    rgba = np.asarray(rgba, np.float32)
+    h = rgba.shape[0]
+    out = np.zeros(rgba.shape, np.float32) if srgb else np.empty(rgba.shape, np.float32)
+    step = max(1, BLOCK_VALUES // max(1, rgba[0].size))
+    for r0 in range(0, h, step):
+        r1 = min(h, r0 + step)
+        block = out[r0:r1]
+        source = rgba[h - r1:h - r0][::-1]  # output row r is the renderer's row h - 1 - r
+        if srgb:
+            premultiplied_srgb_to_linear_into(source, block)
+        else:
+            block[...] = source
+        if background is not None:
+            composite_over_in_place(block, background)
+    return out.reshape(-1)
 
 
 @dataclass(frozen=True)

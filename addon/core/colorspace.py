@@ -18,11 +18,11 @@ def srgb_to_linear(c, dtype=np.float64) -> np.ndarray:
     """The decoding curve, computed in `dtype` (float32 for the engine's frames: within
     1e-6 relative of float64, far below an 8-bit step or a half-float EXR's precision)."""
     c = np.asarray(c, dtype)
-    lin = _decode_(np.abs(c.reshape(-1)))
+    lin = srgb_decode_in_place(np.abs(c.reshape(-1)))
     return np.copysign(lin, c.reshape(-1), out=lin).reshape(c.shape)
 
 
-def _decode_(x: np.ndarray) -> np.ndarray:
+def srgb_decode_in_place(x: np.ndarray) -> np.ndarray:
     """The curve for x >= 0, in place and in x's dtype (below 0: the linear segment goes on).
     Both segments are computed for every value and the power's kept above the knee: a
     masked copy on contiguous arrays, where gathering the high values costs more than the
@@ -52,33 +52,20 @@ def premultiplied_srgb_to_linear(rgba) -> np.ndarray:
     The curve applies to the straight colour: divide by alpha, convert, multiply back;
     alpha-0 pixels stay exactly 0."""
     rgba = np.asarray(rgba, np.float32)
-    out = np.zeros(rgba.shape, np.float32)
-    premultiplied_srgb_to_linear_into(rgba, out)
-    return out
-
-
-def premultiplied_srgb_to_linear_into(rgba: np.ndarray, out: np.ndarray) -> None:
-    """premultiplied_srgb_to_linear of float32 rgba written into out, an array of zeros of
-    its shape (out must not overlap rgba; the render result's rows go through it block by
-    block, film.result_rect)."""
     alpha = rgba[..., 3:4]
+    out = np.zeros(rgba.shape, np.float32)
     # whole pixels, alpha's channel too (put back after), keep every step contiguous:
     # 0.8x the time of gathering the covered pixels' rgb at 1080p, the same values
     np.divide(rgba, alpha, out=out, where=alpha > 0)
-    _decode_(out)  # colours >= 0: no mirror needed
+    srgb_decode_in_place(out)  # colours >= 0: no mirror needed
     out *= alpha
     out[..., 3] = rgba[..., 3]
+    return out
 
 
 def composite_over(rgba: np.ndarray, background_rgb) -> np.ndarray:
     """Premultiplied rgba over an opaque scene-linear colour (the world): alpha becomes 1."""
     out = np.array(rgba, np.float32, copy=True)
-    composite_over_in_place(out, background_rgb)
-    return out
-
-
-def composite_over_in_place(out: np.ndarray, background_rgb) -> None:
-    """composite_over on a contiguous float32 (..., 4) array, written over it."""
     pixels = out.reshape(-1, 4)
     # whole contiguous pixels (alpha gets 0 x T, then is set): 0.6x the time of an
     # rgb slice at 1080p
@@ -86,3 +73,4 @@ def composite_over_in_place(out: np.ndarray, background_rgb) -> None:
     under[:3] = np.asarray(background_rgb, np.float32)[:3]
     pixels += (1.0 - pixels[:, 3:4]) * under
     pixels[:, 3] = 1.0
+    return out

@@ -27,6 +27,18 @@ def frame(h, w, seed):
     return np.concatenate([colour * alpha, alpha], axis=2).astype(np.float32)
 
 
+def test_colour_where_alpha_is_zero_still_gives_zeros():
+    """A renderer's background (gl/frame.behind) leaves colour where alpha is 0: the
+    whole-frame steps give 0 there, and so does the divide by +inf."""
+    rgba = frame(33, 40, seed=5)
+    empty = rgba[..., 3] == 0
+    assert empty.any()
+    rgba[empty, :3] = np.float32([0.2, 1.3, 0.0])
+    for world in (None, (0.05, 0.2, 0.9)):
+        same_bits(result_rect(rgba, world), reference(rgba, world, True))
+    assert np.all(result_rect(rgba, None).reshape(rgba.shape)[::-1][empty] == 0)
+
+
 def same_bits(a, b):
     assert a.dtype == b.dtype == np.float32 and a.shape == b.shape
     np.testing.assert_array_equal(a.view(np.uint32), b.view(np.uint32))

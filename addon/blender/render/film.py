@@ -49,7 +49,9 @@ def result_rect(rgba: np.ndarray, background=None, srgb: bool = True) -> np.ndar
     if background is not None:
         under = np.zeros(4, np.float32)
         under[:3] = np.asarray(background, np.float32)[:3]
-        under = np.tile(under, rgba.shape[1])  # one row of it, to match the rows' floats
+        # one row of it, to match the rows' floats; a black world adds +0 (colours >= 0:
+        # nothing changes), so only alpha is set
+        under = np.tile(under, rgba.shape[1]) if under.any() else None
     for r0 in range(0, h, step):
         r1 = min(h, r0 + step)
         block = out[r0:r1]
@@ -59,8 +61,9 @@ def result_rect(rgba: np.ndarray, background=None, srgb: bool = True) -> np.ndar
             _to_linear(source, alpha, block)
         else:
             block[...] = source
-        if under is not None:
-            _over(block.reshape(r1 - r0, -1), alpha.reshape(r1 - r0, -1), under)
+        if background is not None:
+            if under is not None:
+                _over(block.reshape(r1 - r0, -1), alpha.reshape(r1 - r0, -1), under)
             block[..., 3] = 1.0
     return out.reshape(-1)
 

@@ -4,7 +4,12 @@ and before (final_frame_bench.BEFORE, taken from git), on a .blend holding the f
 bench's capture (bench/playbot_scene.py, written to a .ply and imported as one object with
 the importer's axes) under the same camera.
 
-    python -m bench.cli_frame_bench [runs]
+    python -m bench.cli_frame_bench [runs] [--also NAME=TREE ...]
+
+--also adds another checkout of the code (a worktree of an earlier commit, say) rendering
+the same frames in the same run, for before/after tables of a change.
+Goal (issue 29): <= 1/3 of BEFORE's time per frame, PNG and EXR (with Depth), printed as
+met or MISSED.
 
 Each render is a fresh process (Blender's pipeline, the engine, the film conversion and the
 file writing included) rendering frames 1-3 (EXR before: 1-2, at ~28 s a frame); the first
@@ -27,6 +32,7 @@ from bench.final_frame_bench import BEFORE, COUNT, REPO, SIZE, extract_before
 from bench.playbot_scene import scene
 
 FORMATS = {"PNG": ("1-3", "1-3"), "EXR": ("1-3", "1-2")}  # frames: (now, before)
+GOAL = 1 / 3  # of before's seconds per frame (issue 29)
 FRAME_LINE = re.compile(r"^frame (\d+) \(\d+/\d+\)\s+([0-9.]+) s", re.M)
 
 
@@ -77,11 +83,11 @@ def frame_seconds(tree: str, blend: pathlib.Path, fmt: str, frames: str, out: st
     return times[1:]
 
 
-def main(runs: int = 2):
+def main(runs: int = 2, also: dict | None = None):
     with tempfile.TemporaryDirectory(prefix="splatline-cli-bench-") as tmp:
         folder = pathlib.Path(tmp)
         blend = make_blend(folder)
-        trees = {"now": str(REPO)}
+        trees = {"now": str(REPO), **(also or {})}
         if extract_before(str(folder / "before")):
             trees["before"] = str(folder / "before")
         print(f"python -m addon render, {COUNT:,} splats, SH 2, {SIZE[0]}x{SIZE[1]}, "
@@ -90,15 +96,33 @@ def main(runs: int = 2):
             got = {name: [] for name in trees}
             for run in range(runs):
                 for name in (list(trees) if run % 2 == 0 else list(trees)[::-1]):
-                    span = frames[0] if name == "now" else frames[1]
+                    span = frames[1] if name == "before" else frames[0]
                     got[name] += frame_seconds(trees[name], blend, fmt, span, str(folder / name))
-            now = statistics.median(got["now"])
-            line = f"  {fmt}: now {now:.2f} s"
-            if "before" in got:
-                before = statistics.median(got["before"])
-                line += f", before {before:.2f} s, now / before {now / before:.2f}"
-            print(line)
+            median = {name: statistics.median(times) for name, times in got.items()}
+            line = f"  {fmt}: " + ", ".join(f"{name} {t:.3f} s" for name, t in median.items())
+            if "before" in median:
+                line += "; " + ", ".join(f"{name} / before {t / median['before']:.2f}"
+                                         for name, t in median.items() if name != "before")
+                ratio = median["now"] / median["before"]
+                line += f"; goal now <= {GOAL:.2f} x before: {'met' if ratio <= GOAL else 'MISSED'}"
+            for name in also or {}:
+                line += f"; now / {name} {median['now'] / median[name]:.2f}"
+            print(line, flush=True)
+
+
+def _arguments(argv: list[str]) -> tuple[int, dict]:
+    runs, also = 2, {}
+    args = iter(argv)
+    for arg in args:
+        if arg == "--also":
+            name, _, tree = next(args, "").partition("=")
+            if not tree or name in ("now", "before"):
+                raise SystemExit("--also wants NAME=TREE (a checkout of the code; not now/before)")
+            also[name] = str(pathlib.Path(tree).resolve())
+        else:
+            runs = int(arg)
+    return runs, also
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 2)
+    main(*_arguments(sys.argv[1:]))

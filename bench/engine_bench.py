@@ -33,8 +33,7 @@ def _scene(bpy):
 def _row(bpy, scene, renderer, width, height):
     from addon.blender.render.camera import camera_from_blender
     from addon.blender.evaluate.items import collect_items
-    from addon.blender.render.film import bottom_up
-    from addon.core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
+    from addon.blender.render.film import result_rect
 
     scene.render.resolution_x, scene.render.resolution_y = width, height
     depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -45,7 +44,7 @@ def _row(bpy, scene, renderer, width, height):
     gather = median_s(lambda: collect_items(depsgraph), REPEATS)
     gl = median_s(lambda: renderer.render(items, camera, options), REPEATS)
     out = renderer.render(items, camera, options)
-    convert = median_s(lambda: bottom_up(to_scene_linear(out.rgba)), REPEATS)
+    convert = median_s(lambda: result_rect(out.rgba), REPEATS)  # the engine's conversion
     still = median_s(lambda: bpy.ops.render.render(), REPEATS)
     frames = scene.frame_end - scene.frame_start + 1
     anim = median_s(lambda: bpy.ops.render.render(animation=True), 1) / frames

@@ -18,11 +18,11 @@ def srgb_to_linear(c, dtype=np.float64) -> np.ndarray:
     """The decoding curve, computed in `dtype` (float32 for the engine's frames: within
     1e-6 relative of float64, far below an 8-bit step or a half-float EXR's precision)."""
     c = np.asarray(c, dtype)
-    lin = _decode_(np.abs(c.reshape(-1)))
+    lin = srgb_decode_in_place(np.abs(c.reshape(-1)))
     return np.copysign(lin, c.reshape(-1), out=lin).reshape(c.shape)
 
 
-def _decode_(x: np.ndarray) -> np.ndarray:
+def srgb_decode_in_place(x: np.ndarray) -> np.ndarray:
     """The curve for x >= 0, in place and in x's dtype (below 0: the linear segment goes on).
     Both segments are computed for every value and the power's kept above the knee: a
     masked copy on contiguous arrays, where gathering the high values costs more than the
@@ -57,7 +57,7 @@ def premultiplied_srgb_to_linear(rgba) -> np.ndarray:
     # whole pixels, alpha's channel too (put back after), keep every step contiguous:
     # 0.8x the time of gathering the covered pixels' rgb at 1080p, the same values
     np.divide(rgba, alpha, out=out, where=alpha > 0)
-    _decode_(out)  # colours >= 0: no mirror needed
+    srgb_decode_in_place(out)  # colours >= 0: no mirror needed
     out *= alpha
     out[..., 3] = rgba[..., 3]
     return out

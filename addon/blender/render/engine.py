@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import bpy
 
 from ...core import shutter
-from ...core.colorspace import composite_over, premultiplied_srgb_to_linear as to_scene_linear
+from ...core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 from ...core.errors import SplatFormatError
 from ...core.holdout import combine_depth, holdout_depth
 from ...core.stop import SigintGuard, stop_requested
@@ -32,7 +32,7 @@ from .camera import camera_from_blender
 from ..registration import app_handlers
 from ..evaluate.holdout_geometry import clear_cache as clear_holdout_cache, holdout_for
 from ..evaluate.items import collect_items
-from .film import blender_depth, bottom_up, region_camera, render_region
+from .film import blender_depth, region_camera, render_region, result_rect
 from .world import world_background
 
 
@@ -155,13 +155,14 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             # One view, or each eye of a stereo/multi-view render.
             frame = _Frame(depsgraph, camera_obj, renderer, region, settings.options(),
                            [v.name for v in result.views], settings.meshes, drawn and want_depth)
+            # films: display sRGB from the renderer; motion blur's average is scene-linear
             films = self._blurred(frame, times) if times else self._films(frame, items)
+            # The world: under the mesh layer where it is drawn, else under the splats
+            # (the evaluated world: its colour may be animated).
+            world = None if r.film_transparent or drawn else \
+                world_background(depsgraph.scene_eval.world)
             for view, (rgba, depth) in films.items():
-                # The world: under the mesh layer where it is drawn, else under the splats
-                # (the evaluated world: its colour may be animated).
-                if not r.film_transparent and not drawn:
-                    rgba = composite_over(rgba, world_background(depsgraph.scene_eval.world))
-                _write_view(result, view, rgba, depth)
+                _write_view(result, view, result_rect(rgba, world, srgb=not times), depth)
         except BaseException:
             self.end_result(result, cancel=True)
             raise
@@ -177,8 +178,8 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
                                  + mesh_layer.why_not_attached(scene))
 
     def _films(self, frame, items) -> dict:
-        """{view: (scene-linear premultiplied RGBA, Blender depth)} of the scene as the
-        depsgraph holds it now."""
+        """{view: (the renderer's premultiplied sRGB RGBA, its view depth)} of the scene as
+        the depsgraph holds it now (result_rect and _write_view put them in Blender's terms)."""
         films = {}
         options = frame.options
         holdout = holdout_for(frame.depsgraph) if frame.meshes != "IGNORE" else None
@@ -193,7 +194,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             depth = out.depth
             if frame.mesh_depth and holdout is not None and frame.renderer.has_depth:
                 depth = combine_depth(depth, out.rgba[..., 3], holdout_depth(holdout, camera))
-            films[view] = (to_scene_linear(out.rgba), blender_depth(depth))
+            films[view] = (out.rgba, depth)
         return films
 
     def _blurred(self, frame, times) -> dict:
@@ -208,7 +209,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             for k, time in enumerate(times):
                 self.frame_set(*shutter.split_time(time))
                 for view, (rgba, z) in self._films(frame, collect_items(frame.depsgraph)).items():
-                    sums[view].add(rgba)
+                    sums[view].add(to_scene_linear(rgba))
                     if k == middle:
                         depth[view] = z
         finally:
@@ -259,12 +260,14 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
                                 (region.width, region.height))
 
 
-def _write_view(result, view, rgba, depth):
+def _write_view(result, view, rect, depth):
+    """rect: the Combined pass (film.result_rect); depth: the renderer's, top-down, put in
+    Blender's terms only where the layer has a Depth pass."""
     passes = result.layers[0].passes
-    passes.find_by_name("Combined", view).rect.foreach_set(bottom_up(rgba))
+    passes.find_by_name("Combined", view).rect.foreach_set(rect)
     depth_pass = passes.find_by_name("Depth", view)
     if depth_pass is not None:
-        depth_pass.rect.foreach_set(bottom_up(depth))
+        depth_pass.rect.foreach_set(blender_depth(depth[::-1]).ravel())
 
 
 @bpy.app.handlers.persistent

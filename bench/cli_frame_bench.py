@@ -1,6 +1,6 @@
 """Final frames through the command line, the way issue 14 measured them: seconds per frame
 of `python -m addon render` at 1920x1080, PNG and EXR (multilayer: Combined + Depth), now
-and before (final_frame_bench.BEFORE, taken from git), on a .blend holding the final-frame
+and before (BEFORE: the code issue 29 measured against, taken from git), on a .blend holding the final-frame
 bench's capture (bench/playbot_scene.py, written to a .ply and imported as one object with
 the importer's axes) under the same camera.
 
@@ -28,9 +28,12 @@ import tempfile
 
 import numpy as np
 
-from bench.final_frame_bench import BEFORE, COUNT, REPO, SIZE, extract_before
+from bench.final_frame_bench import COUNT, REPO, SIZE, extract_before
 from bench.playbot_scene import scene
 
+# Issue 29's baseline: the command line's frames as they were when it was filed (the
+# renderer's own BEFORE, final_frame_bench.BEFORE, is older still).
+BEFORE = "84fef8dd89ab9adabf3f3168c3e85a9fa89afc78"
 FORMATS = {"PNG": ("1-3", "1-3"), "EXR": ("1-3", "1-2")}  # frames: (now, before)
 GOAL = 1 / 3  # of before's seconds per frame (issue 29)
 FRAME_LINE = re.compile(r"^frame (\d+) \(\d+/\d+\)\s+([0-9.]+) s", re.M)
@@ -88,7 +91,7 @@ def main(runs: int = 2, also: dict | None = None):
         folder = pathlib.Path(tmp)
         blend = make_blend(folder)
         trees = {"now": str(REPO), **(also or {})}
-        if extract_before(str(folder / "before")):
+        if extract_before(str(folder / "before"), BEFORE):
             trees["before"] = str(folder / "before")
         print(f"python -m addon render, {COUNT:,} splats, SH 2, {SIZE[0]}x{SIZE[1]}, "
               f"before = {BEFORE[:7]}; s per frame, median of the frames after the first, {runs} runs")

@@ -74,13 +74,13 @@ for line in sys.stdin:
 """
 
 
-def extract_before(folder: str) -> bool:
-    """BEFORE's addon/ and shaders/ from git into folder; False (said) where git can't."""
+def extract_before(folder: str, commit: str = BEFORE) -> bool:
+    """commit's addon/ and shaders/ from git into folder; False (said) where git can't."""
     try:
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", BEFORE, "addon", "shaders"],
+        archive = subprocess.run(["git", "-C", str(REPO), "archive", commit, "addon", "shaders"],
                                  capture_output=True, check=True).stdout
     except (OSError, subprocess.CalledProcessError) as exc:
-        print(f"(no before column: git archive {BEFORE[:8]} failed: {exc})")
+        print(f"(no before column: git archive {commit[:8]} failed: {exc})")
         return False
     with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
         safe = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}

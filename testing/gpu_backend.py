@@ -22,4 +22,5 @@ GPU_MODULE_TESTS = frozenset({
     "blender/viewport/test_viewport_blender.py",
     "blender/viewport/test_viewport_display_modes.py",
     "blender/viewport/test_viewport_memory.py",
+    "blender/viewport/test_viewport_speed_paths.py",
 })

@@ -10,6 +10,7 @@ import numpy as np
 from addon.core.effects import displace as displace_module
 from addon.core.effects.common import (F32, add_rows, blocks, field_values, join, scale_rows,
                                        smoothstep01, split)
+from addon.core.effects.grade import grade_block  # its per-block maths did not change
 from addon.core.effects.noise import field, rest_field
 from addon.core.sh import C0
 
@@ -65,24 +66,6 @@ def reveal(splats, p, time: float = 0.0, rest=None):
     return replace(splats, **changes)
 
 
-def grade_gradient(x: np.ndarray, stops) -> list[np.ndarray]:
-    """Per-channel piecewise-linear colour at x (float32 columns), constant beyond the end
-    stops, as np.interp; stops are (position, rgb) in any order."""
-    ordered = sorted(stops, key=lambda s: s[0])
-    out = [np.full(x.shape[0], ordered[0][1][c], F32) for c in range(3)]
-    for (x0, c0), (x1, c1) in zip(ordered, ordered[1:]):
-        if x1 > x0:
-            w = x - F32(x0)
-            w *= F32(1.0 / (x1 - x0))
-            np.clip(w, 0.0, 1.0, out=w)
-        else:  # two stops at one position: a hard step
-            w = (x >= F32(x0)).astype(F32)
-        for c in range(3):
-            if c1[c] != c0[c]:
-                out[c] += w * F32(c1[c] - c0[c])
-    return out
-
-
 def grade(splats, p, time: float = 0.0, rest=None):
     if not p.active or not p.stops or splats.count == 0:
         return splats
@@ -91,29 +74,6 @@ def grade(splats, p, time: float = 0.0, rest=None):
     for part, x in field_blocks(splats.positions, p.frame, p.field, noise):
         grade_block(splats.sh_dc[part], x, p, dc[part])
     return replace(splats, sh_dc=dc)
-
-
-def grade_block(sh_dc: np.ndarray, x: np.ndarray, p: Grade, out: np.ndarray) -> None:
-    x -= F32(p.low)
-    x *= F32(1.0 / (p.high - p.low) if p.high != p.low else 1e12)
-    np.clip(x, 0.0, 1.0, out=x)
-    gain = F32(p.amount / C0)
-    for c, g in enumerate(grade_gradient(x, p.stops)):
-        base = sh_dc[:, c]
-        if p.mode == "ADD":
-            delta = g
-        else:
-            colour = base * F32(C0)
-            colour += F32(0.5)
-            if p.mode == "MIX":
-                g -= colour
-                delta = g
-            else:
-                g -= F32(1.0)
-                colour *= g
-                delta = colour
-        delta *= gain
-        np.add(base, delta, out=out[:, c])
 
 
 def noise_vectors(positions: np.ndarray, p: Displace, time: float) -> list[np.ndarray]:

@@ -10,42 +10,28 @@ A pure cache: it never changes a result.
 """
 from __future__ import annotations
 
-import threading
-import weakref
-from collections import OrderedDict
-
 import numpy as np
 
+from .array_memo import ArrayMemo
 from .common import field_values
 
 
 class FieldMemo:
     def __init__(self, size: int = 4):
-        self.size = size
-        self.entries: OrderedDict = OrderedDict()
-        self.lock = threading.Lock()
+        self.memo = ArrayMemo(size)
 
     def get(self, positions: np.ndarray, frame: np.ndarray, kind: str) -> np.ndarray:
         """field_values(positions, frame, kind) (HEIGHT or DISTANCE), read-only."""
-        key = (id(positions), np.asarray(frame, np.float64).tobytes(), kind)
-        with self.lock:
-            hit = self.entries.get(key)
-            if hit is not None and hit[0]() is positions:
-                self.entries.move_to_end(key)
-                return hit[1]
-        values = field_values(positions, frame, kind)
-        values.flags.writeable = False
-        with self.lock:
-            for dead in [k for k, (ref, _) in self.entries.items() if ref() is None]:
-                del self.entries[dead]
-            self.entries[key] = (weakref.ref(positions), values)
-            while len(self.entries) > self.size:
-                self.entries.popitem(last=False)
-        return values
+        return self.memo.get((positions,), (np.asarray(frame, np.float64).tobytes(), kind),
+                             lambda: _read_only(field_values(positions, frame, kind)))
 
     def clear(self) -> None:
-        with self.lock:
-            self.entries.clear()
+        self.memo.clear()
+
+
+def _read_only(values: np.ndarray) -> np.ndarray:
+    values.flags.writeable = False
+    return values
 
 
 FIELD_VALUES = FieldMemo()

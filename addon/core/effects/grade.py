@@ -79,13 +79,13 @@ def apply(splats, p: Grade, time: float = 0.0, rest=None):
         else:
             x = field_values(splats.positions[part], p.frame, p.field,
                              None if noise is None else noise[part])
-        _grade_block(splats.sh_dc[part], x, p, dc[part])
+        grade_block(splats.sh_dc[part], x, p, dc[part])
 
     for_blocks(splats.count, block)
     return replace(splats, sh_dc=dc)
 
 
-def _grade_block(sh_dc: np.ndarray, x: np.ndarray, p: Grade, out: np.ndarray) -> None:
+def grade_block(sh_dc: np.ndarray, x: np.ndarray, p: Grade, out: np.ndarray) -> None:
     x -= F32(p.low)
     x *= F32(1.0 / (p.high - p.low) if p.high != p.low else 1e12)
     np.clip(x, 0.0, 1.0, out=x)

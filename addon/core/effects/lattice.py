@@ -15,13 +15,11 @@ more than they save on a busy machine.)
 """
 from __future__ import annotations
 
-import threading
-import weakref
-from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
+from .array_memo import ArrayMemo
 from .common import F32, for_blocks, local_columns
 
 BLOCK = 1 << 15      # points per block: a block's gathered corners stay in cache
@@ -82,41 +80,31 @@ def build(x: np.ndarray, y: np.ndarray, z: np.ndarray, period: int) -> Lattice:
     return Lattice(index, weights)
 
 
+def _geometry(positions, frame, frequency, period) -> Lattice:
+    cols = local_columns(positions, frame)
+    for col in cols:
+        col *= F32(frequency)
+    lattice = build(cols[0], cols[1], cols[2], period)
+    lattice.index.flags.writeable = False
+    lattice.weights.flags.writeable = False
+    return lattice
+
+
 class LatticeCache:
-    """Lattice geometry of splat centres, keyed by the positions array itself (held
-    weakly), the gizmo frame and the frequency. A pure cache: it never changes a value.
-    Each entry holds 36 bytes a splat, so only a few are kept."""
+    """Lattice geometry of splat centres, keyed by the positions array itself, the gizmo
+    frame and the frequency. Each entry holds 36 bytes a splat, so only a few are kept."""
 
     def __init__(self, size: int = 2):
-        self.size = size
-        self.entries: OrderedDict = OrderedDict()
-        self.lock = threading.Lock()
+        self.memo = ArrayMemo(size)
 
     def get(self, positions: np.ndarray, frame: np.ndarray, frequency: float,
             period: int) -> Lattice:
-        key = (id(positions), np.asarray(frame, np.float64).tobytes(), float(frequency), period)
-        with self.lock:
-            hit = self.entries.get(key)
-            if hit is not None and hit[0]() is positions:
-                self.entries.move_to_end(key)
-                return hit[1]
-        cols = local_columns(positions, frame)
-        for col in cols:
-            col *= F32(frequency)
-        lattice = build(cols[0], cols[1], cols[2], period)
-        lattice.index.flags.writeable = False
-        lattice.weights.flags.writeable = False
-        with self.lock:
-            for dead in [k for k, (ref, _) in self.entries.items() if ref() is None]:
-                del self.entries[dead]
-            self.entries[key] = (weakref.ref(positions), lattice)
-            while len(self.entries) > self.size:
-                self.entries.popitem(last=False)
-        return lattice
+        extra = (np.asarray(frame, np.float64).tobytes(), float(frequency), period)
+        return self.memo.get((positions,), extra,
+                             lambda: _geometry(positions, frame, frequency, period))
 
     def clear(self) -> None:
-        with self.lock:
-            self.entries.clear()
+        self.memo.clear()
 
 
 LATTICES = LatticeCache()

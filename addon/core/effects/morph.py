@@ -12,14 +12,13 @@ Position, scale, opacity and SH are blended linearly, rotation by slerp (shortes
 from __future__ import annotations
 
 import threading
-import weakref
-from collections import OrderedDict
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..reframe import map_into
 from ..splats import SplatSet, sh_coeff_count
+from .array_memo import ArrayMemo
 from .common import F32, EffectParams, for_blocks, split
 from .kind import EffectKind, Field
 from .recycle import BUFFERS
@@ -169,34 +168,16 @@ def _slerp_block(setup: SlerpSetup, t: float, part: slice, out: np.ndarray) -> N
 
 
 class SlerpCache:
-    """slerp_setup of pairs of rotation arrays, keyed by the arrays themselves (held
-    weakly). A pure cache: it never changes a result."""
+    """slerp_setup of pairs of rotation arrays, keyed by the arrays themselves."""
 
     def __init__(self, size: int = 2):
-        self.size = size
-        self.entries: OrderedDict = OrderedDict()
-        self.lock = threading.Lock()
+        self.memo = ArrayMemo(size)
 
     def get(self, q0: np.ndarray, q1: np.ndarray) -> SlerpSetup:
-        key = (id(q0), id(q1))
-        with self.lock:
-            hit = self.entries.get(key)
-            if hit is not None and hit[0]() is q0 and hit[1]() is q1:
-                self.entries.move_to_end(key)
-                return hit[2]
-        setup = slerp_setup(q0, q1)
-        with self.lock:
-            for dead in [k for k, (r0, r1, _) in self.entries.items()
-                         if r0() is None or r1() is None]:
-                del self.entries[dead]
-            self.entries[key] = (weakref.ref(q0), weakref.ref(q1), setup)
-            while len(self.entries) > self.size:
-                self.entries.popitem(last=False)
-        return setup
+        return self.memo.get((q0, q1), (), lambda: slerp_setup(q0, q1))
 
     def clear(self) -> None:
-        with self.lock:
-            self.entries.clear()
+        self.memo.clear()
 
 
 SLERPS = SlerpCache()

@@ -12,11 +12,11 @@ lookup on later frames. The memo is bounded and never changes a result.
 from __future__ import annotations
 
 import threading
-import weakref
 from collections import OrderedDict
 
 import numpy as np
 
+from .array_memo import ArrayMemo
 from .common import F32, local_columns
 from .lattice import LATTICES, cell
 
@@ -27,24 +27,32 @@ _TABLES: OrderedDict = OrderedDict()   # pure cache: (seed, stream) -> corner ta
 _LOCK = threading.Lock()
 
 
-def corner_table(seed: int, channel: int, layer: int = 0) -> np.ndarray:
-    key = (seed, channel, layer)
+def _table(key, make) -> np.ndarray:
+    """_TABLES' read-only array for key, made by make() on a miss."""
     table = _TABLES.get(key)
     if table is None:
-        stream = (layer * 8 + channel) % (1 << 40)
-        rng = np.random.default_rng([seed & 0xFFFFFFFF, 7919 + stream])
-        lattice = rng.uniform(-1.0, 1.0, (PERIOD,) * 3).astype(F32)
-        corners = np.empty((PERIOD,) * 3 + (8,), F32)
-        for k in range(8):
-            dx, dy, dz = k >> 2, (k >> 1) & 1, k & 1
-            corners[..., k] = np.roll(lattice, (-dx, -dy, -dz), axis=(0, 1, 2))
-        table = np.ascontiguousarray(corners.reshape(-1, 8))
+        table = make()
         table.flags.writeable = False
         with _LOCK:
             _TABLES[key] = table
             while len(_TABLES) > _MAX_TABLES:
                 _TABLES.popitem(last=False)
     return table
+
+
+def corner_table(seed: int, channel: int, layer: int = 0) -> np.ndarray:
+    return _table((seed, channel, layer), lambda: _make_corner_table(seed, channel, layer))
+
+
+def _make_corner_table(seed: int, channel: int, layer: int) -> np.ndarray:
+    stream = (layer * 8 + channel) % (1 << 40)
+    rng = np.random.default_rng([seed & 0xFFFFFFFF, 7919 + stream])
+    lattice = rng.uniform(-1.0, 1.0, (PERIOD,) * 3).astype(F32)
+    corners = np.empty((PERIOD,) * 3 + (8,), F32)
+    for k in range(8):
+        dx, dy, dz = k >> 2, (k >> 1) & 1, k & 1
+        corners[..., k] = np.roll(lattice, (-dx, -dy, -dz), axis=(0, 1, 2))
+    return np.ascontiguousarray(corners.reshape(-1, 8))
 
 
 def lattice_value(seed: int, channel: int, i: int, j: int, k: int) -> float:
@@ -101,37 +109,26 @@ def value_noise(x: np.ndarray, y: np.ndarray, z: np.ndarray, seed: int,
 
 
 class FieldCache:
-    """Noise values at splat centres, keyed by the positions array itself (held weakly),
-    the gizmo frame, frequency, seed, layer and channel count. Values are read-only
-    (N, channels) arrays: a Displace blend then works on contiguous rows."""
+    """Noise values at splat centres, keyed by the positions array itself, the gizmo frame,
+    frequency, seed, layer and channel count. Values are read-only (N, channels) arrays:
+    a Displace blend then works on contiguous rows."""
 
     def __init__(self, size: int = 8):
-        self.size = size
-        self.entries: OrderedDict = OrderedDict()
-        self.lock = threading.Lock()
+        self.memo = ArrayMemo(size)
 
     def get(self, positions: np.ndarray, frame: np.ndarray, frequency: float, seed: int,
             channels: int, layer: int = 0) -> np.ndarray:
-        key = (id(positions), np.asarray(frame, np.float64).tobytes(), float(frequency), seed,
-               channels, layer)
-        with self.lock:
-            hit = self.entries.get(key)
-            if hit is not None and hit[0]() is positions:
-                self.entries.move_to_end(key)
-                return hit[1]
-        values = evaluate_rows(positions, frame, frequency, seed, channels, layer)
-        values.flags.writeable = False
-        with self.lock:
-            for dead in [k for k, (ref, _) in self.entries.items() if ref() is None]:
-                del self.entries[dead]  # their centres are gone: no lookup can hit them
-            self.entries[key] = (weakref.ref(positions), values)
-            while len(self.entries) > self.size:
-                self.entries.popitem(last=False)
-        return values
+        extra = (np.asarray(frame, np.float64).tobytes(), float(frequency), seed, channels, layer)
+        return self.memo.get((positions,), extra, lambda: _read_only(
+            evaluate_rows(positions, frame, frequency, seed, channels, layer)))
 
     def clear(self) -> None:
-        with self.lock:
-            self.entries.clear()
+        self.memo.clear()
+
+
+def _read_only(values: np.ndarray) -> np.ndarray:
+    values.flags.writeable = False
+    return values
 
 
 def evaluate_rows(positions, frame, frequency, seed, channels, layer=0) -> np.ndarray:
@@ -144,16 +141,8 @@ def evaluate_rows(positions, frame, frequency, seed, channels, layer=0) -> np.nd
 
 def corner_tables(seed: int, channels: int, layer: int = 0) -> np.ndarray:
     """(cells, channels, 8): the channels' corner tables side by side (memoized with them)."""
-    key = (seed, "channels", channels, layer)
-    tables = _TABLES.get(key)
-    if tables is None:
-        tables = np.stack([corner_table(seed, c, layer) for c in range(channels)], axis=1)
-        tables.flags.writeable = False
-        with _LOCK:
-            _TABLES[key] = tables
-            while len(_TABLES) > _MAX_TABLES:
-                _TABLES.popitem(last=False)
-    return tables
+    return _table((seed, "channels", channels, layer), lambda: np.stack(
+        [corner_table(seed, c, layer) for c in range(channels)], axis=1))
 
 
 def evaluate_field(positions, frame, frequency, seed, channels, layer=0) -> list[np.ndarray]:

@@ -15,6 +15,12 @@ import weakref
 from collections import OrderedDict
 
 
+def read_only(values):
+    """values, made read-only (what a memo hands out is shared: no caller may write it)."""
+    values.flags.writeable = False
+    return values
+
+
 class ArrayMemo:
     def __init__(self, size: int):
         self.size = size

@@ -72,6 +72,7 @@ def apply(splats, p: Explode, time: float = 0.0, rest=None):
     half = 0.5 * p.spin * tau * p.amount  # every splat turns by this, about its own axis
     positions = np.empty_like(splats.positions)
     rotations = np.empty_like(splats.rotations) if normals is not None else None
+
     def block(part):
         centres = splats.positions[part]
         v = velocities(centres, p, jitter[:, part])

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .array_memo import ArrayMemo
+from .array_memo import ArrayMemo, read_only
 from .common import field_values
 
 
@@ -23,15 +23,21 @@ class FieldMemo:
     def get(self, positions: np.ndarray, frame: np.ndarray, kind: str) -> np.ndarray:
         """field_values(positions, frame, kind) (HEIGHT or DISTANCE), read-only."""
         return self.memo.get((positions,), (np.asarray(frame, np.float64).tobytes(), kind),
-                             lambda: _read_only(field_values(positions, frame, kind)))
+                             lambda: read_only(field_values(positions, frame, kind)))
 
     def clear(self) -> None:
         self.memo.clear()
 
 
-def _read_only(values: np.ndarray) -> np.ndarray:
-    values.flags.writeable = False
-    return values
-
-
 FIELD_VALUES = FieldMemo()
+
+
+def rows_field(splats, rest, frame, kind: str, noise=None):
+    """A function of a block of rows (a slice) giving field_values there: slices of the
+    memoized whole field (read-only) for the stack's input, whose centres are the same
+    array every frame, else computed for the block (a fresh array)."""
+    if noise is None and splats.positions is rest:
+        whole = FIELD_VALUES.get(splats.positions, frame, kind)
+        return lambda part: whole[part]
+    return lambda part: field_values(splats.positions[part], frame, kind,
+                                     None if noise is None else noise[part])

@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import F32, EffectParams, field_values, for_blocks
-from .field_memo import FIELD_VALUES
+from .common import F32, EffectParams, for_blocks
+from .field_memo import rows_field
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
 
@@ -68,17 +68,13 @@ def apply(splats, p: Grade, time: float = 0.0, rest=None):
     if p.field not in FIELDS:
         raise ValueError(f"Grade field {p.field!r} is not one of {FIELDS}")
     noise = rest_field(splats, rest, p) if p.field == "NOISE" else None
-    whole = None
-    if noise is None and splats.positions is rest:  # the stack's input: the same every frame
-        whole = FIELD_VALUES.get(splats.positions, p.frame, p.field)
+    field = rows_field(splats, rest, p.frame, p.field, noise)
     dc = np.empty_like(splats.sh_dc)
 
     def block(part):
-        if whole is not None:
-            x = whole[part].copy()
-        else:
-            x = field_values(splats.positions[part], p.frame, p.field,
-                             None if noise is None else noise[part])
+        x = field(part)
+        if not x.flags.writeable:  # the memoized field: grade_block works in place
+            x = x.copy()
         grade_block(splats.sh_dc[part], x, p, dc[part])
 
     for_blocks(splats.count, block)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .array_memo import ArrayMemo
-from .common import F32, for_blocks, local_columns
+from .common import F32, blocks, for_blocks, local_columns
 
 BLOCK = 1 << 15      # points per block: a block's gathered corners stay in cache
 
@@ -60,8 +60,7 @@ def build(x: np.ndarray, y: np.ndarray, z: np.ndarray, period: int) -> Lattice:
     n = x.shape[0]
     index = np.empty(n, np.intp)
     weights = np.empty((n, 8), F32)
-    for start in range(0, n, BLOCK):
-        part = slice(start, min(n, start + BLOCK))
+    for part in blocks(n, BLOCK):
         ix, sx = cell(x[part], period)
         iy, sy = cell(y[part], period)
         iz, sz = cell(z[part], period)

@@ -16,7 +16,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from .array_memo import ArrayMemo
+from .array_memo import ArrayMemo, read_only
 from .common import F32, local_columns
 from .lattice import LATTICES, cell
 
@@ -61,10 +61,6 @@ def lattice_value(seed: int, channel: int, i: int, j: int, k: int) -> float:
     return float(table[((i & _MASK) * PERIOD + (j & _MASK)) * PERIOD + (k & _MASK), 0])
 
 
-def _cell(v: np.ndarray):
-    return cell(v, PERIOD)
-
-
 def _weights(sx, sy, sz) -> np.ndarray:
     """(8, N) trilinear weights, corner k = dx*4 + dy*2 + dz; contiguous rows are written
     far faster than the strided columns of an (N, 8) array."""
@@ -94,9 +90,9 @@ def value_noise(x: np.ndarray, y: np.ndarray, z: np.ndarray, seed: int,
     out = [np.empty(n, F32) for _ in range(channels)]
     for start in range(0, n, block):
         part = slice(start, start + block)
-        ix, sx = _cell(x[part])
-        iy, sy = _cell(y[part])
-        iz, sz = _cell(z[part])
+        ix, sx = cell(x[part], PERIOD)
+        iy, sy = cell(y[part], PERIOD)
+        iz, sz = cell(z[part], PERIOD)
         index = ix * PERIOD
         index += iy
         index *= PERIOD
@@ -119,16 +115,12 @@ class FieldCache:
     def get(self, positions: np.ndarray, frame: np.ndarray, frequency: float, seed: int,
             channels: int, layer: int = 0) -> np.ndarray:
         extra = (np.asarray(frame, np.float64).tobytes(), float(frequency), seed, channels, layer)
-        return self.memo.get((positions,), extra, lambda: _read_only(
+        return self.memo.get((positions,), extra, lambda: read_only(
             evaluate_rows(positions, frame, frequency, seed, channels, layer)))
 
     def clear(self) -> None:
         self.memo.clear()
 
-
-def _read_only(values: np.ndarray) -> np.ndarray:
-    values.flags.writeable = False
-    return values
 
 
 def evaluate_rows(positions, frame, frequency, seed, channels, layer=0) -> np.ndarray:

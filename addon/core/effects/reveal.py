@@ -14,9 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sh import C0
-from .common import (F32, EffectParams, add_rows, field_values, for_blocks, put_rows,
-                     scale_rows, smoothstep01)
-from .field_memo import FIELD_VALUES
+from .common import F32, EffectParams, add_rows, for_blocks, put_rows, scale_rows, smoothstep01
+from .field_memo import rows_field
 from .kind import FREQUENCY, SEED, EffectKind, Field
 from .noise import rest_field
 
@@ -78,20 +77,13 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
     if p.shape not in _FIELD:
         raise ValueError(f"Reveal shape {p.shape!r} is not one of {SHAPES}")
     noise = rest_field(splats, rest, p) if p.shape == "NOISE" else None
-    whole = None
-    if noise is None and splats.positions is rest:  # the stack's input: the same every frame
-        whole = FIELD_VALUES.get(splats.positions, p.frame, _FIELD[p.shape])
+    field = rows_field(splats, rest, p.frame, _FIELD[p.shape], noise)
     opacities = np.empty_like(splats.opacities)
     scales = np.empty_like(splats.scales) if p.shrink > 0.0 else None
     sh_dc = np.empty_like(splats.sh_dc) if p.glow_strength > 0.0 else None
 
     def block(part):
-        if whole is not None:
-            f = whole[part]
-        else:
-            f = field_values(splats.positions[part], p.frame, _FIELD[p.shape],
-                             None if noise is None else noise[part])
-        s = edge_position(f, p)
+        s = edge_position(field(part), p)
         if sh_dc is not None:
             glow = s * (F32(1.0) - s)
             glow *= F32(4.0 * p.amount * p.glow_strength / C0)

@@ -67,6 +67,7 @@ def apply(splats, p: Twist, time: float = 0.0, rest=None):
     origin, axis = frame_origin(p.frame), frame_axis(p.frame)
     positions = np.empty_like(splats.positions)
     rotations = np.empty_like(splats.rotations)
+
     def block(part):
         centres = splats.positions[part]
         half = angles(centres, p)

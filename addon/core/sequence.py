@@ -15,6 +15,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 from .errors import SplatFormatError
+from .splats import ARRAYS
 
 HOLD, LOOP, PING_PONG = "HOLD", "LOOP", "PING_PONG"
 LOOP_MODES = (HOLD, LOOP, PING_PONG)
@@ -116,8 +117,7 @@ def frame_index(time: float, count: int, start: float = 1.0, speed: float = 1.0,
 
 
 def splats_nbytes(splats) -> int:
-    return sum(getattr(splats, n).nbytes for n in
-               ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"))
+    return sum(getattr(splats, n).nbytes for n in ARRAYS)
 
 
 class FrameCache:

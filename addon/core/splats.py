@@ -41,6 +41,10 @@ def sh_degree_for(rest_count: int) -> int:
     raise ValueError(f"{rest_count} higher SH coefficients per channel match no degree 0..3")
 
 
+# SplatSet's per-splat arrays, in field order (the rest of its fields describe them).
+ARRAYS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
+
+
 @dataclass
 class SplatSet:
     """N Gaussians in the file's own frame, with activations already applied.

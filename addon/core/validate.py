@@ -24,10 +24,9 @@ import numpy as np
 
 from .errors import SplatFormatError
 from .quaternion import normalize_quats_
-from .splats import SplatSet
+from .splats import ARRAYS, SplatSet
 
 POLICIES = ("fix", "drop", "error")
-_FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 TINY_SCALE = float(np.finfo(np.float32).tiny)  # smallest normal float32, 1.2e-38
 
 
@@ -101,7 +100,7 @@ def find_bad(splats: SplatSet) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict
     n = splats.count
     nonfinite = np.zeros(n, bool)
     by_field = {}
-    for name in _FIELDS:
+    for name in ARRAYS:
         arr = getattr(splats, name)
         if arr.size == 0:
             by_field[name] = 0
@@ -136,7 +135,7 @@ def check_values(splats: SplatSet, policy: str = "fix", path=None) -> tuple[Spla
 
 def _neutralise(splats: SplatSet, nonfinite: np.ndarray, zero_q: np.ndarray, nonpos: np.ndarray) -> None:
     idx = np.flatnonzero(nonfinite)
-    for name in _FIELDS:
+    for name in ARRAYS:
         arr = getattr(splats, name)
         rows = arr[idx]
         rows[~np.isfinite(rows)] = 0.0

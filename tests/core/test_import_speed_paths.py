@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from addon.core import framing, validate
-from addon.core.splats import SplatSet
+from addon.core.splats import ARRAYS, SplatSet
 
 AXES = [  # (up, forward): the capture frames' own, a tilted capture, a forward not level
     ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
@@ -122,7 +122,7 @@ def test_find_bad_without_blas_equals_isfinite(layout):
         assert not splats.sh_rest.flags.c_contiguous
     nonfinite, zero_q, nonpos, by_field = validate.find_bad(splats)
     want_nonfinite = np.zeros(splats.count, bool)
-    for name in validate._FIELDS:
+    for name in ARRAYS:
         values = getattr(splats, name)
         rows = ~np.isfinite(values.reshape(splats.count, -1)).all(axis=1)
         assert by_field[name] == int(rows.sum()), name

@@ -23,6 +23,7 @@ from ...core.effects import evaluate_stack
 from ...core.effects.common import stop_helper
 from ...core.effects.recycle import BUFFERS
 from ...core.scene import IDENTITY_COLOR, RenderItem
+from ...core.splats import ARRAYS
 from . import effect_params
 from ..registration import app_handlers
 from ..data.evaluated_geometry import handoff_modifier, own_data
@@ -98,9 +99,8 @@ class BaseCache:
             hit = self.entries.get(key[0])
         if hit is None or hit[0] != key:
             splats = splats_from_pointcloud(own_data(obj_eval, depsgraph))
-            for array in (splats.positions, splats.scales, splats.rotations, splats.opacities,
-                          splats.sh_dc, splats.sh_rest):
-                array.flags.writeable = False
+            for name in ARRAYS:
+                getattr(splats, name).flags.writeable = False
             hit = (key, splats)
             with self.lock:
                 self.entries[key[0]] = hit
@@ -129,7 +129,7 @@ class BaseCache:
 
 
 _BASE = BaseCache()
-SPLAT_FIELDS = frozenset(("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"))
+SPLAT_FIELDS = frozenset(ARRAYS)
 
 
 def base_splats(obj_eval, depsgraph):
@@ -192,10 +192,13 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     return RenderItem(
         splats=replace(result.splats), world=world, splat_scale=float(look.size),
         opacity_scale=float(look.opacity) if look.visible else 0.0, sh_degree=int(look.max_sh_degree),
-        color_matrix=core_look.color_matrix(tuple(look.tint), look.exposure, look.saturation,
-                                            look.hue),
+        color_matrix=_color_matrix(look),
         key=key, positions_key=positions_key, base_key=(name, base_key),
         base_fields=frozenset(f for f in SPLAT_FIELDS if getattr(result.splats, f) is getattr(base, f)))
+
+
+def _color_matrix(look):
+    return core_look.color_matrix(tuple(look.tint), look.exposure, look.saturation, look.hue)
 
 
 def stored_as_is(obj_eval) -> bool:
@@ -212,8 +215,7 @@ def stored_as_is(obj_eval) -> bool:
         return False
     # max_sh_degree tops out at 3, the most Splatline reads: no band is then cut
     return (look.visible and look.size == 1.0 and look.opacity == 1.0 and look.max_sh_degree >= 3
-            and np.array_equal(core_look.color_matrix(tuple(look.tint), look.exposure,
-                                                      look.saturation, look.hue), IDENTITY_COLOR))
+            and np.array_equal(_color_matrix(look), IDENTITY_COLOR))
 
 
 def shown(obj_eval) -> bool:
@@ -240,6 +242,7 @@ def _on_load(*_args):
 
 _HANDLERS = ((bpy.app.handlers.depsgraph_update_post, _on_depsgraph_update),
              (bpy.app.handlers.load_pre, _on_load))
+
 
 def _on_unregister():
     _on_load()

@@ -77,10 +77,11 @@ class Handoff:
         original = obj_eval.original
         if not native.drawn_natively(original.data):
             return False
+        drawn = shown(obj_eval)
         other = geometry.claim(original)
-        if other is None and shown(obj_eval) and stored_as_is(obj_eval):
+        if other is None and drawn and stored_as_is(obj_eval):
             return False
-        item = item_for(obj_eval, depsgraph) if shown(obj_eval) else None
+        item = item_for(obj_eval, depsgraph) if drawn else None
         if other is None:
             if item is not None and not changes_splats(item):
                 return False

@@ -20,7 +20,7 @@ import bpy
 from ...core import sequence as core_sequence
 from ...core.errors import SplatFormatError
 from ...core.formats import read
-from ...core.splats import SplatSet
+from ...core.splats import ARRAYS, SplatSet
 
 log = logging.getLogger("splatline.sequence")
 MB = 1 << 20
@@ -40,7 +40,7 @@ def _load(path) -> SplatSet:
     so they are made read-only: an effect writing in place fails loudly instead of
     corrupting the cached frame for the next evaluation."""
     splats = read(path)
-    for name in ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest"):
+    for name in ARRAYS:
         getattr(splats, name).setflags(write=False)
     return splats
 

@@ -85,7 +85,9 @@ def halves_fast(a: np.ndarray) -> np.ndarray:
 
 
 def drawable(splats: SplatSet, degree: int) -> np.ndarray:
-    """(N,) bool: quaternion non-zero and finite, scales and SH up to `degree` finite."""
+    """(N,) bool: quaternion non-zero and finite, scales and SH up to `degree` finite.
+    The readable whole: the renderer tests a field at a time (rotation_rows, finite_rows,
+    rest_rows), pinned to this by tests/blender/viewport/test_viewport_speed_paths.py."""
     q = splats.rotations
     ok = np.isfinite(q).all(1) & (q != 0).any(1)
     ok &= np.isfinite(splats.scales).all(1) & np.isfinite(splats.sh_dc).all(1)
@@ -120,7 +122,8 @@ def rest_rows(splats: SplatSet, degree: int) -> np.ndarray:
 
 
 def pack_pos(splats: SplatSet, ok: np.ndarray) -> np.ndarray:
-    """ok: drawable(splats, degree), cached apart (effects change opacities every frame)."""
+    """The pos stream in one go (ok: drawable(splats, degree)): the layout that
+    staging.PosStage keeps and rewrites in parts, pinned to this by its tests."""
     flat = np.zeros((padded(splats.count), 4), np.float32)
     view = flat[:splats.count]
     view[:, :3] = splats.positions
@@ -156,6 +159,8 @@ def shape_scales(scales: np.ndarray, largest: np.ndarray) -> np.ndarray:
 
 
 def pack_shape(splats: SplatSet) -> np.ndarray:
+    """The shape stream in one go: the layout that staging.ShapeStage keeps and rewrites
+    in parts, pinned to this by its tests."""
     n = splats.count
     flat = stream(n * SHAPE_VALUES)
     view = flat.reshape(-1)[:n * SHAPE_VALUES].reshape(n, SHAPE_VALUES)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..reframe import map_into
-from ..splats import SplatSet, sh_coeff_count
+from ..splats import ARRAYS, SplatSet, sh_coeff_count
 from .array_memo import ArrayMemo
 from .common import F32, EffectParams, for_blocks, split
 from .kind import EffectKind, Field
@@ -218,8 +218,7 @@ def blend(source: SplatSet, target: SplatSet, pairing: Pairing, t: float) -> Spl
                                  sh_rest=_pad_rest(lone.sh_rest, k), axes=source.axes))
     if len(parts) == 1:
         return parts[0]
-    return SplatSet(*(np.concatenate([getattr(p, f) for p in parts]) for f in
-                      ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")),
+    return SplatSet(*(np.concatenate([getattr(p, f) for p in parts]) for f in ARRAYS),
                     axes=source.axes)
 
 

@@ -309,3 +309,26 @@ def test_an_effect_at_amount_zero_leaves_the_choice_to_the_evaluated_item(native
     assert not items.stored_as_is(obj_eval)
     assert items._BASE.entries  # read: the settings alone could not tell
     assert geometry.handoff_modifier(obj) is None
+
+
+def test_blenders_own_import_is_left_to_blender_without_a_read(native_bpy, testdata):
+    """wm.ply_import's splat object (Blender's operator, turned as a user would place it):
+    with Splatline's default settings the handoff leaves it to Blender unread; a look
+    change then gives it a companion."""
+    from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.evaluate import items
+
+    bpy = native_bpy
+    items._BASE.clear()
+    assert bpy.ops.wm.ply_import(filepath=str(testdata / "guitar.ply")) == {"FINISHED"}
+    obj = bpy.context.view_layer.objects.active
+    assert obj.data.type == "GAUSSIAN_SPLAT"
+    obj.rotation_euler = (1.2, 0.3, -0.7)
+    bpy.context.scene.frame_set(3)
+    bpy.context.view_layer.update()
+    assert items.stored_as_is(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+    assert geometry.handoff_modifier(obj) is None
+    assert not items._BASE.entries
+    obj.splatline.look.exposure = 1.0
+    bpy.context.view_layer.update()
+    assert geometry.handoff_modifier(obj) is not None

@@ -12,7 +12,9 @@ the drawing path of ViewportRenderer into a small GPUOffScreen, timing the CPU s
           time includes waiting for a core, the CPU time does not
 Cases "orbit" sorts inline (the full CPU cost per frame); "orbit-bg" is the draw
 handler's mode: the sort runs on the worker thread, the drawing thread only uploads
-each finished order (frames 33 ms apart, untimed), so its sort column is 0.
+each finished order (frames 33 ms apart, untimed), so its sort column is 0. "data-bg" is
+"data" in the draw handler's mode: centres moving every frame, the last order drawn while
+the worker sorts (sort column 0).
   draw*   the draw call itself, once per size. On llvmpipe the "GPU" is this CPU and
           the call rasterises every quad before returning, so it measures software
           rendering, not the drawing path's CPU cost; on a real GPU it only queues work.
@@ -47,9 +49,10 @@ from bench import viewport_quality  # noqa: E402  (after the path set-up)
 from bench.common import wall_and_cpu  # noqa: E402
 
 SIZES = (100_000, 1_000_000, 3_000_000)
-FRAMES = {"still": 15, "orbit": 15, "orbit-bg": 7, "data": 5, "fade": 5}
+FRAMES = {"still": 15, "orbit": 15, "orbit-bg": 7, "data": 5, "data-bg": 7, "fade": 5}
+BACKGROUND = ("orbit-bg", "data-bg")  # the draw handler's mode: the worker sorts
 CASES = tuple(FRAMES)
-FRAME_GAP = 0.033  # seconds between orbit-bg frames (not timed): the worker sorts meanwhile
+FRAME_GAP = 0.033  # seconds between background-sort frames (not timed): the worker sorts meanwhile
 WIDTH, HEIGHT = 64, 48
 DEGREE = 1
 
@@ -80,10 +83,10 @@ def _changed(case: str, item, frame: int, rng):
     s = item.splats
     opacities = np.clip(s.opacities * rng.uniform(0.9, 1.1, s.count).astype(np.float32), 0, 1)
     changes = {"opacities": opacities}
-    if case == "data":  # a drift that grows with the frame, as the old bench's did
+    if case.startswith("data"):  # a drift that grows with the frame, as the old bench's did
         changes["positions"] = s.positions + np.float32(1e-3) * np.float32(frame * (frame + 1) // 2)
     kept = frozenset(("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")) - set(changes)
-    positions_key = item.key + (("moving", frame),) if case == "data" else item.key
+    positions_key = item.key + (("moving", frame),) if case.startswith("data") else item.key
     return replace(item, splats=replace(s, **changes), key=item.key + (frame,), positions_key=positions_key,
                    base_key=item.key, base_fields=kept)
 
@@ -91,16 +94,16 @@ def _changed(case: str, item, frame: int, rng):
 def _run(case: str, item, renderer, proj) -> list[tuple[float, ...]]:
     from addon.blender.viewport import DrawSettings
 
-    settings = DrawSettings(sync_sort=case != "orbit-bg")
+    settings = DrawSettings(sync_sort=case not in BACKGROUND)
     rows = []
     rng = np.random.default_rng(1)
     for frame in range(FRAMES[case] + 1):  # frame 0 warms up (first upload, shader)
         view = _view(frame if case.startswith("orbit") else 0)
-        drawn = _changed(case, item, frame, rng) if case in ("data", "fade") and frame else item
+        drawn = _changed(case, item, frame, rng) if case in ("data", "data-bg", "fade") and frame else item
         start, cpu = time.perf_counter(), time.process_time()
         renderer.prepare([drawn], view, proj, (WIDTH, HEIGHT), settings)
         total, cpu = time.perf_counter() - start, time.process_time() - cpu
-        if case == "orbit-bg":
+        if case in BACKGROUND:
             time.sleep(FRAME_GAP)
         if frame:
             st = renderer.stats
@@ -166,7 +169,7 @@ def main(argv=()) -> None:
         base, base_cpu = _argsort_ms(n)
         draw_ms, draw_cpu = _draw_call_ms(item, proj)
         for case in CASES:
-            renderer = ViewportRenderer(worker=case == "orbit-bg")
+            renderer = ViewportRenderer(worker=case in BACKGROUND)
             off = gpu.types.GPUOffScreen(WIDTH, HEIGHT, format="RGBA16F")
             with off.bind():
                 rows = _run(case, item, renderer, proj)

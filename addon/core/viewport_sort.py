@@ -60,6 +60,7 @@ class SortResult:
     token: object = None     # what the caller asked for (view + data versions)
     radius_dependent: bool = False  # the frustum test removed splats: other radii may not
     cpu_seconds: float = 0.0  # the sorting thread's CPU time (a loaded machine adds wall time only)
+    layout: object = None    # the caller's name for the splats the indices index
 
 
 def _rows(m: np.ndarray, projection: np.ndarray, cull: bool) -> np.ndarray:
@@ -186,9 +187,9 @@ class SortWorker:
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
-    def request(self, token, inputs, projection, near, far, bits) -> None:
+    def request(self, token, inputs, projection, near, far, bits, layout=None) -> None:
         with self._cond:
-            self._pending = (token, inputs, projection, near, far, bits)
+            self._pending = ((token, layout), inputs, projection, near, far, bits)
             self._cond.notify()
 
     def take(self) -> SortResult | None:
@@ -211,10 +212,10 @@ class SortWorker:
                     return
                 job, self._pending = self._pending, None
                 self._busy = True
-            token, *args = job
+            (token, layout), *args = job
             try:
                 result = visible_order(*args)
-                result.token = token
+                result.token, result.layout = token, layout
             except Exception:  # a bad frame must not kill the worker; the draw re-sorts inline
                 result = None
             with self._cond:

@@ -28,6 +28,7 @@ import numpy as np
 from ...core.camera import Camera
 from ...core.clip_space import camera_from_projection
 from ...core.preprocess import camera_in_object, j_clamp_bounds, split_float
+from ...core.effects.common import for_blocks
 from ...core.splats import SplatSet, sh_coeff_count
 
 WIDTH = 4096          # texels per row of every data texture
@@ -66,22 +67,65 @@ HALF_NORMAL = 2.0 ** -14  # the smallest normal half: below it halves step by HA
 
 
 def halves_fast(a: np.ndarray) -> np.ndarray:
-    """halves() without float16: the same values, 2-3x faster (numpy converts to and from
-    float16 one value at a time). Normal halves keep 11 significant bits: round the
-    float32 mantissa at bit 13, to nearest even, on the bits. Below HALF_NORMAL, |x| + 0.5
-    rounds to the float32 step there, 2^-24 = HALF_TINY, also to nearest even."""
-    out = np.array(a, np.float32)
-    np.clip(out, -HALF_MAX, HALF_MAX, out=out)  # infinities too; NaN stays NaN ...
-    np.copyto(out, np.float32(0.0), where=np.isnan(out))  # ... and becomes 0 here
-    small = np.abs(out) < np.float32(HALF_NORMAL)
-    tiny = out[small]
-    bits = out.view(np.uint32)
-    bits += np.uint32(0xFFF) + ((bits >> np.uint32(13)) & np.uint32(1))
-    bits &= np.uint32(0xFFFFE000)
-    if tiny.size:
-        half = np.float32(0.5)
-        out[small] = np.copysign((np.abs(tiny) + half) - half, tiny)
+    """halves() without float16: the same values, several times faster (numpy converts
+    to and from float16 one value at a time; halves_into works on the bits, block by block)."""
+    a = np.asarray(a, np.float32)
+    out = np.empty(a.shape, np.float32)
+    flat = out.reshape(-1, 1) if a.ndim < 2 else out.reshape(a.shape[0], -1)
+    halves_into(flat, a.reshape(flat.shape))
     return out
+
+
+def halves_into(out: np.ndarray, a: np.ndarray, signs: np.ndarray | None = None) -> None:
+    """out[:] = halves(a) for (N, k) arrays; out may be a strided view (columns of a
+    stream). With `signs` ((N,) integers), out is shape_scales(a, signs) instead. Rows go
+    block by block on the effects' threads, so each block's temporaries stay in cache."""
+    a = np.asarray(a, np.float32)
+
+    def block(rows):
+        part = np.array(a[rows], np.float32)
+        _round_to_halves(part)
+        if signs is not None:
+            _sign_scales(part, signs[rows])
+        if out.flags.c_contiguous:
+            out[rows] = part
+        else:
+            for c in range(part.shape[1]):  # a column at a time: several times faster than a block
+                out[rows, c] = part[:, c]
+
+    for_blocks(a.shape[0], block)
+
+
+def _round_to_halves(x: np.ndarray) -> None:
+    """halves(), in place on a contiguous float32 array. Normal halves keep 11 significant
+    bits: round the float32 mantissa at bit 13, to nearest even, on the bits. Below
+    HALF_NORMAL, |x| + 0.5 rounds to the float32 step there, 2^-24 = HALF_TINY, also to
+    nearest even."""
+    np.clip(x, -HALF_MAX, HALF_MAX, out=x)  # infinities too; NaN stays NaN ...
+    if np.isnan(x.min()):  # (a NaN anywhere makes the minimum NaN)
+        np.copyto(x, np.float32(0.0), where=np.isnan(x))  # ... and becomes 0 here
+    small = np.abs(x) < np.float32(HALF_NORMAL)
+    tiny = x[small] if small.any() else None
+    bits = x.view(np.uint32)
+    carry = bits >> np.uint32(13)
+    carry &= np.uint32(1)
+    carry += np.uint32(0xFFF)
+    bits += carry
+    bits &= np.uint32(0xFFFFE000)
+    if tiny is not None:
+        half = np.float32(0.5)
+        x[small] = np.copysign((np.abs(tiny) + half) - half, tiny)
+
+
+def _sign_scales(x: np.ndarray, largest: np.ndarray) -> None:
+    """shape_scales' marks on (n, 3) rounded scales, in place: |scale| (a zero as
+    HALF_TINY), the sign of x and y carrying bits 0 and 1 of `largest`."""
+    np.abs(x, out=x)
+    np.maximum(x, np.float32(HALF_TINY), out=x)  # positive halves below HALF_TINY are 0
+    bits = x.view(np.uint32)
+    index = largest.astype(np.uint32)
+    bits[:, 0] |= (index & np.uint32(1)) << np.uint32(31)
+    bits[:, 1] |= (index & np.uint32(2)) << np.uint32(30)
 
 
 def drawable(splats: SplatSet, degree: int) -> np.ndarray:
@@ -150,8 +194,10 @@ def shape_rotation(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def shape_scales(scales: np.ndarray, largest: np.ndarray) -> np.ndarray:
-    """The shape stream's scale part: |scale| as halves, signs carrying `largest`."""
-    out = np.abs(halves_fast(scales))
+    """The shape stream's scale part: |scale| as halves (a zero as HALF_TINY, the smallest
+    positive half), signs carrying `largest`. The readable whole; halves_into(out, scales,
+    largest) writes the same into a stream's columns."""
+    out = np.abs(halves(scales))
     out[out == 0] = HALF_TINY
     out[:, 0] *= np.where(largest & 1, -1.0, 1.0)
     out[:, 1] *= np.where(largest & 2, -1.0, 1.0)

@@ -103,9 +103,9 @@ class ShapeStage:
                 self.largest[k] = largest.astype(np.int8)
                 _columns(view, 0, three)
             if rotation or size:
-                _columns(view, 3, packing.shape_scales(part[1][1], self.largest[k]))
+                packing.halves_into(view[:, 3:6], part[1][1], self.largest[k])
             if colour:
-                _columns(view, 6, packing.halves_fast(part[2][1]))
+                packing.halves_into(view[:, 6:9], part[2][1])
             changed |= rotation or size or colour
             self.sources[k] = part
             start += n

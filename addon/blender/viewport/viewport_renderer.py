@@ -72,6 +72,8 @@ class _State:
     radius_token: tuple = ()
     sorted_token: object = None
     sorted_radius_dependent: bool = False  # the last order culled by radius (see SortResult)
+    layout: tuple = ()           # per object (name, splat count): what the order's indices index
+    sorted_layout: tuple = ()    # the layout the uploaded order was made for
     pending_token: object = None
     objects_token: object = None
 
@@ -231,9 +233,11 @@ class ViewportRenderer:
         if self.packs.built != built:  # packing for the sort counts as upload work
             seconds += time.perf_counter() - start
         token = tuple(ident for ident, _ in soa)
+        self.state.layout = tuple((i.key[0] if i.key else None, i.splats.count) for i in items)
         if token != self.state.positions_token:
             self.state.positions_token = token
-            self.state.sorted_token = None  # the old order is stale: sort inline this frame
+            if self.state.sorted_layout != self.state.layout:
+                self.state.sorted_token = None  # the old order is not for these splats: sort inline
         self.state.radius_token = tuple(ident for ident, _ in radii)
         self.stats.cpu_bytes = self.packs.end_frame() + self.pos.nbytes + self.shape.nbytes
         self.stats.total = sum(i.splats.count for i in items)
@@ -262,8 +266,11 @@ class ViewportRenderer:
     def _update_order(self, items, soa, displays, l2c, projection, near, far, settings) -> None:
         token = self._sort_token(items, l2c, projection, displays)
         if self.worker is not None:
+            # An order made for earlier centres of the same splats is still a permutation
+            # of them, and nearer the truth than the one drawn: while centres move every
+            # frame (an effect playing), each finished order is drawn and the next requested.
             done = self.worker.take()
-            if done is not None and done.token[0] == self.state.positions_token:
+            if done is not None and done.layout == self.state.layout:
                 self._upload_order(done)
         if self._same_view(token, self.state.sorted_token):
             return
@@ -273,13 +280,13 @@ class ViewportRenderer:
         have_order = self.state.sorted_token is not None
         if settings.sync_sort or self.worker is None or not have_order:
             result = visible_order(inputs, projection, near, far, bits)
-            result.token = token
+            result.token, result.layout = token, self.state.layout
             self.stats.frame_sort += result.seconds
             self.stats.frame_sort_cpu += result.cpu_seconds
             self._upload_order(result)
         elif not self._same_view(token, self.state.pending_token):
             self.state.pending_token = token
-            self.worker.request(token, inputs, projection, near, far, bits)
+            self.worker.request(token, inputs, projection, near, far, bits, self.state.layout)
 
     def _upload_order(self, result) -> None:
         start = time.perf_counter()
@@ -289,7 +296,7 @@ class ViewportRenderer:
         self.stats.sort_seconds = result.seconds
         self.stats.drawn = int(result.order.size)
         self.stats.sorts += 1
-        self.state.sorted_token = result.token
+        self.state.sorted_token, self.state.sorted_layout = result.token, result.layout
         self.state.sorted_radius_dependent = result.radius_dependent
 
     @property

@@ -83,6 +83,53 @@ def test_background_sort_draws_the_last_order_then_catches_up(gpu_ready):
     assert not worker.alive and worker._thread not in threading.enumerate()
 
 
+def _moved(items, frame):
+    """Frame `frame` of a displace playing on the first object, as items.py hands it: new
+    centres and key, the positions key new with them, the other arrays the base's own."""
+    a = items[0]
+    shifted = a.splats.positions + np.float32(0.05 * frame) * a.splats.positions[:, ::-1]
+    kept = frozenset(("scales", "rotations", "opacities", "sh_dc", "sh_rest"))
+    return [replace(a, splats=replace(a.splats, positions=shifted), key=a.key + (frame,),
+                    positions_key=a.key + ("moved", frame), base_key=a.key, base_fields=kept), items[1]]
+
+
+def _settle(r):
+    deadline = time.time() + 20
+    while r.sorting and time.time() < deadline:
+        time.sleep(0.01)
+
+
+def test_moving_centres_keep_the_last_order_while_the_worker_sorts(gpu_ready):
+    """An effect moving centres every frame (scrubbing a displace): the drawing thread
+    draws the order it has, a permutation of the same splats, and takes each finished
+    order even though the centres moved again since it was asked for; once they stop, the
+    picture is the exact one. A new splat count is sorted inline: an old order of other
+    splats is never drawn."""
+    from addon.blender.viewport import DrawSettings, ViewportRenderer
+
+    items, cam = _items(), camera_for((0, 0, 0), 64, 48)
+    cam, lazy = _orbit(cam, 30), DrawSettings(sync_sort=False)
+    r = ViewportRenderer(worker=True)
+    try:
+        draw_offscreen(items, cam, settings=lazy, renderer=r)
+        assert r.stats.sorts == 1
+        draw_offscreen(_moved(items, 1), cam, settings=lazy, renderer=r)
+        assert r.stats.sorts == 1 and r.stats.frame_sort == 0.0, "not sorted on the drawing thread"
+        _settle(r)
+        draw_offscreen(_moved(items, 2), cam, settings=lazy, renderer=r)  # takes frame 1's order
+        assert r.stats.sorts == 2 and r.stats.frame_sort == 0.0
+        _settle(r)
+        img, _ = draw_offscreen(_moved(items, 2), cam, settings=lazy, renderer=r)  # frame 2's own
+        assert r.stats.sorts == 3
+        assert psnr(img, draw_offscreen(_moved(items, 2), cam)[0]) == float("inf")
+        fewer = [items[0], replace(items[1], splats=items[1].splats.subset(np.arange(150)))]
+        img, _ = draw_offscreen(fewer, cam, settings=lazy, renderer=r)
+        assert r.stats.sorts == 4 and r.stats.frame_sort > 0.0, "another layout: sorted inline"
+        assert psnr(img, draw_offscreen(fewer, cam)[0]) == float("inf")
+    finally:
+        r.close()
+
+
 def _splat_object(bpy, name, splats):
     from addon.blender.data.pointcloud import new_pointcloud
 

@@ -208,6 +208,28 @@ def test_halves_fast_is_halves_bit_for_bit():
     np.testing.assert_array_equal(packing.halves_fast(grid).view(np.uint32), packing.halves(grid).view(np.uint32))
 
 
+def test_halves_into_stream_columns_is_halves_and_shape_scales_bit_for_bit():
+    """The staging path: rows in blocks on two threads, written into three columns of a
+    wider stream, as halves() and as shape_scales() (zeros, NaN, signs, every largest
+    index); the other columns stay as they were."""
+    rng = np.random.default_rng(7)
+    n = 5 * (1 << 16) + 123  # several blocks, the last one short
+    values = rng.normal(scale=3.0, size=(n, 3)).astype(np.float32)
+    values[::7] *= np.float32(1e-6)  # subnormal halves
+    values[5, 0], values[6, 1], values[7, 2], values[8, 0], values[9] = np.nan, np.inf, -np.inf, 0.0, -0.0
+    largest = rng.integers(0, 4, n).astype(np.int8)
+    stream = rng.normal(size=(n, packing.SHAPE_VALUES)).astype(np.float32)
+    before = stream.copy()
+    packing.halves_into(stream[:, 3:6], values, largest)
+    packing.halves_into(stream[:, 6:9], values)
+    np.testing.assert_array_equal(stream[:, 3:6].view(np.uint32),
+                                  packing.shape_scales(values, largest).view(np.uint32))
+    np.testing.assert_array_equal(stream[:, 6:9].view(np.uint32), packing.halves(values).view(np.uint32))
+    np.testing.assert_array_equal(stream[:, :3], before[:, :3])
+    assert (np.signbit(stream[:, 3]) == ((largest & 1) != 0)).all()
+    assert (np.signbit(stream[:, 4]) == ((largest & 2) != 0)).all()
+
+
 @pytest.mark.parametrize("field", ["sh_dc", "scales"])
 def test_a_colour_or_size_effect_re_uploads_the_shape_alone(testdata, gpu_ready, field):
     """An effect's frame as items.py hands it: a new key, the untouched arrays named as

@@ -18,6 +18,7 @@ import numpy as np
 
 from . import equirect as _equirect
 from .dof import Defocus
+from .matrix_inverse import inverse4
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,7 @@ class Camera:
 
     @property
     def camera_to_world(self) -> np.ndarray:
-        return np.linalg.inv(self.world_to_camera)
+        return inverse4(self.world_to_camera)
 
     @property
     def position(self) -> np.ndarray:
@@ -87,7 +88,7 @@ def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
     cam_to_world = np.eye(4)
     cam_to_world[:3, 0], cam_to_world[:3, 1], cam_to_world[:3, 2] = right, true_up, back
     cam_to_world[:3, 3] = eye
-    return np.linalg.inv(cam_to_world)
+    return inverse4(cam_to_world)
 
 
 def simple_camera(width: int, height: int, fov_x_deg: float, world_to_camera,
@@ -153,7 +154,7 @@ def rigid_inverse(camera_to_world) -> np.ndarray:
     """
     m = np.array(camera_to_world, np.float64)
     m[:3, :3] /= np.linalg.norm(m[:3, :3], axis=0)
-    return np.linalg.inv(m)
+    return inverse4(m)
 
 
 def equirect_camera(world_to_camera, width: int, height: int, *,

@@ -15,16 +15,39 @@ import numpy as np
 from .sort import far_to_near
 
 
+class Deferred:
+    """fn(source), made on first use by whichever thread sorts first: with the sort on the
+    worker, an effect's new centres or sizes are laid out for it there, not on the drawing
+    thread. Two threads racing make the same array twice, harmlessly."""
+
+    def __init__(self, fn, source):
+        self.fn, self.source, self._value = fn, source, None
+
+    @property
+    def value(self) -> np.ndarray:
+        if self._value is None:
+            self._value = self.fn(self.source)
+        return self._value
+
+    @property
+    def nbytes(self) -> int:
+        return 0 if self._value is None else self._value.nbytes
+
+
+def _array(a):
+    return a.value if isinstance(a, Deferred) else a
+
+
 @dataclass
 class SortInput:
     """One object's part of the sort: centres, bounding radii and where they are placed."""
 
-    soa: np.ndarray              # (3, N) float32 centres, object space, one row per axis
+    soa: np.ndarray | Deferred   # (3, N) float32 centres, object space, one row per axis
     local_to_camera: np.ndarray  # (4, 4) float64 (Blender camera: looks down -z)
     cull: bool = True
     dilation: float = 0.2        # frustum grown by this fraction of its half-size
     radius_scale: float = 1.0    # splat scale multipliers applied to the radii
-    radius: np.ndarray | None = None  # (N,) float32 bounding radius (bounding_radius)
+    radius: np.ndarray | Deferred | None = None  # (N,) float32 bounding radius (bounding_radius)
 
     @staticmethod
     def of(positions: np.ndarray, local_to_camera, cull: bool = True, dilation: float = 0.2,
@@ -82,23 +105,32 @@ CULL_WORTH = 0.1       # ... and culls them all only if more than this fraction 
 SMALL = 4096           # below this many splats, always cull (it costs next to nothing)
 
 
+def affine_row(row: np.ndarray, soa: np.ndarray) -> np.ndarray:
+    """row[:3] . point + row[3] for each column of soa, in float32, as three scaled adds:
+    a matrix product here would go to BLAS, whose threads then spin on a core for a while
+    after every call, taking it from the drawing thread and the effects."""
+    out = soa[0] * np.float32(row[0])
+    out += soa[1] * np.float32(row[1])
+    out += soa[2] * np.float32(row[2])
+    out += np.float32(row[3])
+    return out
+
+
 def _outside(soa: np.ndarray, radius, rows: np.ndarray, dilation: float, radius_scale: float) -> np.ndarray:
     """Mask of splats whose bounding sphere lies wholly outside the grown frustum.
 
     rows: depth, x_clip, y_clip [, w_clip] (see _rows). A sphere of radius R moves
     x_clip and w by at most |row| R, so |x| <= grow * w is relaxed by R * reach.
     """
-    q = rows[:, :3].astype(np.float32) @ soa
-    q += rows[:, 3:].astype(np.float32)
     grow = 1.0 + dilation
     w_row = rows[3] if rows.shape[0] == 4 else rows[0]
     reach = max(np.linalg.norm(rows[1, :3]), np.linalg.norm(rows[2, :3])) + grow * np.linalg.norm(w_row[:3])
-    lim = q[3] if rows.shape[0] == 4 else q[0]
+    lim = affine_row(w_row, soa)
     lim *= np.float32(grow)
     if radius is not None:
         lim += radius * np.float32(radius_scale * reach)
-    m = np.abs(q[1], out=q[1])
-    np.maximum(m, np.abs(q[2], out=q[2]), out=m)
+    m = np.abs(affine_row(rows[1], soa))
+    np.maximum(m, np.abs(affine_row(rows[2], soa)), out=m)
     return m > lim
 
 
@@ -113,20 +145,19 @@ def _keep(part: SortInput, projection, near, far):
     pay for itself. The near and far tests use the centre, as every renderer does.
     """
     m = np.asarray(part.local_to_camera, np.float64)
-    depth_row = -m[2]
-    depth = depth_row[:3].astype(np.float32) @ part.soa
-    depth += np.float32(depth_row[3])
+    soa = _array(part.soa)
+    depth = affine_row(-m[2], soa)
     keep = depth > near
     keep &= depth <= far
     frustum_removed = False
     if part.cull:
         rows = _rows(m, projection, True)
-        n = part.soa.shape[1]
-        r = part.radius
+        n = soa.shape[1]
+        r = _array(part.radius)
         args = (rows, part.dilation, part.radius_scale)
-        if n <= SMALL or _outside(part.soa[:, ::SAMPLE_STRIDE], None if r is None else r[::SAMPLE_STRIDE],
+        if n <= SMALL or _outside(soa[:, ::SAMPLE_STRIDE], None if r is None else r[::SAMPLE_STRIDE],
                                   *args).mean() > CULL_WORTH:
-            outside = _outside(part.soa, r, *args)
+            outside = _outside(soa, r, *args)
             frustum_removed = bool((outside & keep).any())
             keep &= ~outside
     if keep.all():
@@ -150,7 +181,7 @@ def visible_order(inputs: list[SortInput], projection: np.ndarray, near: float, 
     for part in inputs:
         depth, idx, frustum_removed = _keep(part, projection, near, far)
         radius_dependent |= frustum_removed
-        n = part.soa.shape[1]
+        n = _array(part.soa).shape[1]
         if idx is None and len(inputs) > 1:
             idx = np.arange(n, dtype=np.int32)
         depths.append(depth)

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from addon.core.clip_space import projection_matrix
-from addon.core.viewport_sort import SortInput, SortWorker, visible_order
+from addon.core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
+                                      visible_order)
 from addon.core.camera import look_at, simple_camera
 from addon.core.sort import back_to_front, depth_keys, far_to_near, radix_argsort
 
@@ -88,6 +89,32 @@ def test_objects_interleave_in_one_order():
     inputs = [SortInput.of(a, cam.world_to_camera), SortInput.of(b, cam.world_to_camera @ world_b)]
     result = visible_order(inputs, projection_matrix(cam), cam.near, cam.far, 16)
     assert list(result.order) == [1, 3, 2, 0]
+
+
+def test_deferred_inputs_sort_as_their_arrays_and_are_made_once():
+    """The viewport hands the sort its centres and radii as Deferred (made on the sorting
+    thread): the same order, culling by radius included, and each made on first use only."""
+    cam = _camera()
+    rng = np.random.default_rng(3)
+    pts = rng.normal(0, 6, (20000, 3)).astype(np.float32)
+    scales = np.exp(rng.uniform(-4, 0, (20000, 3))).astype(np.float32)
+    proj = projection_matrix(cam)
+    plain = SortInput(centres_layout(pts), cam.world_to_camera, True, 0.0, 1.0, bounding_radius(scales))
+    made = []
+
+    def counted(fn):
+        return lambda a: made.append(fn.__name__) or fn(a)
+
+    deferred = SortInput(Deferred(counted(centres_layout), pts), cam.world_to_camera, True, 0.0, 1.0,
+                         Deferred(counted(bounding_radius), scales))
+    assert made == []
+    expect = visible_order([plain], proj, cam.near, cam.far)
+    assert expect.radius_dependent, "the scene must cull by radius for this test to see it"
+    for _ in range(2):
+        got = visible_order([deferred], proj, cam.near, cam.far)
+        np.testing.assert_array_equal(got.order, expect.order)
+    assert sorted(made) == ["bounding_radius", "centres_layout"]
+    assert deferred.radius.nbytes == 20000 * 4
 
 
 def test_worker_returns_the_latest_request():

@@ -104,17 +104,22 @@ def _round_to_halves(x: np.ndarray) -> None:
     np.clip(x, -HALF_MAX, HALF_MAX, out=x)  # infinities too; NaN stays NaN ...
     if np.isnan(x.min()):  # (a NaN anywhere makes the minimum NaN)
         np.copyto(x, np.float32(0.0), where=np.isnan(x))  # ... and becomes 0 here
-    small = np.abs(x) < np.float32(HALF_NORMAL)
-    tiny = x[small] if small.any() else None
+    magnitude = np.abs(x)
+    small = magnitude < np.float32(HALF_NORMAL)
+    any_small = bool(small.any())
+    if any_small:  # (a size effect hiding splats makes half of them tiny: no gathers)
+        half = np.float32(0.5)
+        magnitude += half
+        magnitude -= half
+        tiny = np.copysign(magnitude, x, out=magnitude)
     bits = x.view(np.uint32)
     carry = bits >> np.uint32(13)
     carry &= np.uint32(1)
     carry += np.uint32(0xFFF)
     bits += carry
     bits &= np.uint32(0xFFFFE000)
-    if tiny is not None:
-        half = np.float32(0.5)
-        x[small] = np.copysign((np.abs(tiny) + half) - half, tiny)
+    if any_small:
+        np.copyto(x, tiny, where=small)
 
 
 def _sign_scales(x: np.ndarray, largest: np.ndarray) -> None:

@@ -18,7 +18,8 @@ import numpy as np
 from ...core.scene import RenderItem
 from . import packing
 from .staging import ALL, ALPHA, PosStage, ShapeStage
-from ...core.viewport_sort import SortInput, SortWorker, bounding_radius, centres_layout, visible_order
+from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
+                                   visible_order)
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
 MODES = {"GAUSSIAN": 0, "POINTS": 1, "OPAQUE": 2}
@@ -221,17 +222,18 @@ class ViewportRenderer:
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
         self.gpu.sh_values = values
-        start, built = time.perf_counter(), self.packs.built
         # Filed under positions_key: a colour, opacity or scale effect changes item.key
         # every frame but not the centres, and must not cost a re-sort.
+        # Deferred: made by the sort that first needs them (the worker's, in the draw
+        # handler's mode), so an effect moving or resizing splats costs the drawing thread
+        # neither the centres' layout nor the radii.
         soa = [self.packs.get("centres", i, (i.splats.positions,),
-                              lambda i=i: centres_layout(i.splats.positions), key=_positions_key(i))
+                              lambda i=i: Deferred(centres_layout, i.splats.positions), key=_positions_key(i))
                for i in items]
         radii = [self.packs.get("radius", i, (i.splats.scales,),
-                                lambda i=i: bounding_radius(i.splats.scales), key=_data_key(i, ("scales",)))
+                                lambda i=i: Deferred(bounding_radius, i.splats.scales),
+                                key=_data_key(i, ("scales",)))
                  for i in items]
-        if self.packs.built != built:  # packing for the sort counts as upload work
-            seconds += time.perf_counter() - start
         token = tuple(ident for ident, _ in soa)
         self.state.layout = tuple((i.key[0] if i.key else None, i.splats.count) for i in items)
         if token != self.state.positions_token:

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..matrix_inverse import inverse4
+
 F32 = np.float32
 
 
@@ -41,7 +43,7 @@ def inverse(m: np.ndarray) -> np.ndarray:
     object scaled to 0 on some axis), so a degenerate frame never stops evaluation."""
     m = np.asarray(m, np.float64)
     try:
-        return np.linalg.inv(m)
+        return inverse4(m)  # not np.linalg.inv: see matrix_inverse
     except np.linalg.LinAlgError:
         return np.linalg.pinv(m)
 

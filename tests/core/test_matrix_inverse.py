@@ -1,0 +1,42 @@
+"""matrix_inverse.inverse4 against numpy's LAPACK inverse, and its singular cases."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from addon.core.effects.common import inverse
+from addon.core.matrix_inverse import inverse4
+
+
+def test_inverse4_matches_numpy_to_the_condition_number():
+    rng = np.random.default_rng(0)
+    for k in range(500):
+        m = rng.normal(size=(4, 4)) if k % 2 else np.eye(4)
+        if not k % 2:  # affine transforms of every scale, as objects, gizmos and cameras are
+            m[:3, :4] = rng.normal(size=(3, 4)) * rng.uniform(1e-3, 1e3)
+        expect = np.linalg.inv(m)
+        error = np.abs(inverse4(m) - expect).max() / np.abs(expect).max()
+        assert error <= 1e-14 * np.linalg.cond(m)
+        np.testing.assert_allclose(inverse4(m) @ m, np.eye(4), atol=1e-9 * np.linalg.cond(m))
+
+
+def test_singular_raises_as_numpy_does_and_effects_fall_back_to_pinv():
+    m = np.diag([2.0, 0.0, 4.0, 1.0])  # an Empty scaled to 0 on an axis
+    for invert in (inverse4, np.linalg.inv):
+        with pytest.raises(np.linalg.LinAlgError):
+            invert(m)
+    np.testing.assert_allclose(inverse(m), np.linalg.pinv(m))  # the gizmo still works
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_a_value_that_is_not_finite_gives_what_numpy_gives(value):
+    m = np.diag([2.0, 3.0, 4.0, 1.0])
+    m[1, 1] = value
+    m[0, 3] = 5.0
+    with np.errstate(all="ignore"):
+        np.testing.assert_array_equal(inverse4(m), np.linalg.inv(m))
+
+
+def test_inverse4_takes_only_4x4():
+    with pytest.raises(ValueError, match="4x4"):
+        inverse4(np.eye(3))

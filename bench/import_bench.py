@@ -5,7 +5,7 @@ Gaussian-splat PointCloud on 5.3+).
     python -m bench import            (or: make bench; .venv-5.3/bin/python -m bench.import_bench)
     python -m bench.import_bench --baseline /path/to/older/checkout   (before/after, one run)
 
-Two tables, each run a fresh process, the variants alternating so load from other
+Two tables, each run a fresh process, the variants taking turns to go first so load from other
 processes on the machine hits them alike:
 - in process: bpy imported and an empty scene set up before the clock starts, then one
   import (Splatline's import_file_with_report, or wm.ply_import), as a user's first import
@@ -153,11 +153,15 @@ def main(runs: int = RUNS, baseline: str | None = None) -> dict:
         path = make_file(folder)
         size_mb = os.path.getsize(path) / 1e6
         env = _child_env(folder)
-        for timed in [False] + [True] * runs:  # the first round fills the bytecode cache
-            for v in variants:
+        for run, timed in enumerate([False] + [True] * runs):  # the first round fills the bytecode cache
+            turn = variants[run % len(variants):] + variants[:run % len(variants)]  # each goes first in turn
+            for v in turn:
                 r = _in_process("blender" if v == "blender" else "splatline", path, roots[v], env)
                 inproc[v] += [r] if timed else []
-            for v in variants:
+            for v in turn:
+                # the last child's 219 MB .blend still being written back slowed whichever
+                # save came next (0.1-0.2 s, seen on one variant alone in a fixed order)
+                os.sync()
                 r = _whole_process(v, path, roots[v], folder, env)
                 whole[v] += [r] if timed else []
     first = inproc["blender"][0]

@@ -43,3 +43,21 @@ def wait_for_marker(proc, marker, timeout=120) -> None:
             proc.kill()
             raise AssertionError(f"the child never reached its marker in {timeout} s")
         time.sleep(0.02)
+
+
+def finish_or_dump(proc, timeout=60) -> tuple[bytes, bytes]:
+    """proc.communicate(timeout), for a child started with `-X faulthandler`: one that has
+    not ended by then is sent SIGABRT, whose handler prints every thread's Python stack,
+    and the test fails with that stack (a hang seen once in CI left only "timed out")."""
+    try:
+        return proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGABRT)
+        try:
+            _, err = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            _, err = proc.communicate()
+        err = err.decode(errors="replace") if isinstance(err, bytes) else err or ""
+        raise AssertionError(f"the child had not ended {timeout} s after its signal; its threads:\n"
+                             f"{err[-4000:]}") from None

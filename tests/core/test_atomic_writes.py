@@ -18,7 +18,7 @@ import time
 import pytest
 
 from addon.core.formats import read, write
-from testing.interrupt import wait_for_marker
+from testing.interrupt import finish_or_dump, wait_for_marker
 from testing.paths import REPO
 from testing.synth import random_splats
 
@@ -88,7 +88,7 @@ def _old_output(tmp_path, name):
 
 def _child(out, point, marker, cli=False):
     code = CHILD.format(root=ROOT, out=str(out), point=point, marker=str(marker), cli=cli)
-    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-X", "faulthandler", "-c", code], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE)
 
 
@@ -125,7 +125,7 @@ def test_sigterm_stops_a_convert_as_ctrl_c_does(tmp_path, name, point):
     proc = _child(folder / name, point, marker, cli=True)
     wait_for_marker(proc, marker)
     proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
+    _, err = finish_or_dump(proc, timeout=60)
     assert proc.returncode == 130, err.decode()[-2000:]
     assert err.decode().strip().splitlines()[-1] == "interrupted"
     assert _snapshot(folder) == before
@@ -208,7 +208,7 @@ def _blend_objects(path):
 def _import_blend(source, out, point="none", marker=None):
     code = BLEND_CHILD.format(root=ROOT, out=str(out), point=point, marker=str(marker),
                               source=str(source))
-    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-X", "faulthandler", "-c", code], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE)
 
 

@@ -1,6 +1,11 @@
 """Child processes stopped on cue: Ctrl+C as a terminal sends it (the one harness of the SIGINT
 tests: a bpy script, the CLI), and the wait for a child to reach a point it marks with a file
-(the kill and claim tests)."""
+(the kill and claim tests).
+
+A child that pauses for its signal sleeps in short slices, never one long sleep: a signal
+sent to a process may be delivered to any of its threads that does not block it (numpy's
+OpenBLAS threads, Blender's), and then it does not interrupt the main thread's sleep; Python
+runs the handler only when that sleep returns (a 60 s hang seen once in CI)."""
 from __future__ import annotations
 
 import signal

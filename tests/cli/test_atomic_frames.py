@@ -28,7 +28,8 @@ CHILD = textwrap.dedent("""
         if scene.frame_current == 2:
             with open({marker!r}, "w") as f:
                 f.write("paused")
-            time.sleep(120)
+            for _ in range(2400):  # 120 s in slices (testing/interrupt.py says why)
+                time.sleep(0.05)
 
     bpy.app.handlers.render_write.append(pause_at_frame_2)
     from addon.__main__ import main

@@ -116,21 +116,28 @@ def affine_row(row: np.ndarray, soa: np.ndarray) -> np.ndarray:
     return out
 
 
-def _outside(soa: np.ndarray, radius, rows: np.ndarray, dilation: float, radius_scale: float) -> np.ndarray:
+def _outside(soa: np.ndarray, depth: np.ndarray, radius, rows: np.ndarray, dilation: float,
+             radius_scale: float) -> np.ndarray:
     """Mask of splats whose bounding sphere lies wholly outside the grown frustum.
 
-    rows: depth, x_clip, y_clip [, w_clip] (see _rows). A sphere of radius R moves
-    x_clip and w by at most |row| R, so |x| <= grow * w is relaxed by R * reach.
+    rows: depth, x_clip, y_clip [, w_clip] (see _rows); depth: rows[0] at these points,
+    already made by the caller (w_clip itself, for a perspective view). A sphere of radius
+    R moves x_clip and w by at most |row| R, so |x| <= grow * w is relaxed by R * reach.
     """
     grow = 1.0 + dilation
     w_row = rows[3] if rows.shape[0] == 4 else rows[0]
     reach = max(np.linalg.norm(rows[1, :3]), np.linalg.norm(rows[2, :3])) + grow * np.linalg.norm(w_row[:3])
-    lim = affine_row(w_row, soa)
-    lim *= np.float32(grow)
+    if rows.shape[0] == 4:
+        lim = affine_row(w_row, soa)
+        lim *= np.float32(grow)
+    else:
+        lim = depth * np.float32(grow)
     if radius is not None:
         lim += radius * np.float32(radius_scale * reach)
-    m = np.abs(affine_row(rows[1], soa))
-    np.maximum(m, np.abs(affine_row(rows[2], soa)), out=m)
+    m = affine_row(rows[1], soa)
+    np.abs(m, out=m)
+    y = affine_row(rows[2], soa)
+    np.maximum(m, np.abs(y, out=y), out=m)
     return m > lim
 
 
@@ -155,9 +162,10 @@ def _keep(part: SortInput, projection, near, far):
         n = soa.shape[1]
         r = _array(part.radius)
         args = (rows, part.dilation, part.radius_scale)
-        if n <= SMALL or _outside(soa[:, ::SAMPLE_STRIDE], None if r is None else r[::SAMPLE_STRIDE],
+        every = slice(None, None, SAMPLE_STRIDE)
+        if n <= SMALL or _outside(soa[:, every], depth[every], None if r is None else r[every],
                                   *args).mean() > CULL_WORTH:
-            outside = _outside(soa, r, *args)
+            outside = _outside(soa, depth, r, *args)
             frustum_removed = bool((outside & keep).any())
             keep &= ~outside
     if keep.all():

@@ -122,7 +122,6 @@ class FieldCache:
         self.memo.clear()
 
 
-
 def evaluate_rows(positions, frame, frequency, seed, channels, layer=0) -> np.ndarray:
     """Noise at the gizmo-local centres times frequency, (N, channels) (no memo of the
     values; the centres' lattice geometry is memoized in lattice.LATTICES, shared by every

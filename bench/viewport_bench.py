@@ -80,12 +80,14 @@ def _changed(case: str, item, frame: int, rng):
     """The item of a data-changing frame as the effect stack hands it (evaluate/items.py):
     new arrays for what changed, the base's own for the rest, a new key every frame, the
     positions key kept unless the centres moved."""
+    from addon.core.splats import ARRAYS
+
     s = item.splats
     opacities = np.clip(s.opacities * rng.uniform(0.9, 1.1, s.count).astype(np.float32), 0, 1)
     changes = {"opacities": opacities}
     if case.startswith("data"):  # a drift that grows with the frame, as the old bench's did
         changes["positions"] = s.positions + np.float32(1e-3) * np.float32(frame * (frame + 1) // 2)
-    kept = frozenset(("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")) - set(changes)
+    kept = frozenset(ARRAYS) - set(changes)
     positions_key = item.key + (("moving", frame),) if case.startswith("data") else item.key
     return replace(item, splats=replace(s, **changes), key=item.key + (frame,), positions_key=positions_key,
                    base_key=item.key, base_fields=kept)

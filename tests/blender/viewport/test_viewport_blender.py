@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from addon.core.scene import RenderItem
-from testing.viewport_scene import blob, camera_for, draw_offscreen, overlay_drawn, psnr
+from addon.core.splats import ARRAYS
+from testing.viewport_scene import blob, camera_for, draw_offscreen, overlay_drawn, psnr, two_objects
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +89,7 @@ def _moved(items, frame):
     centres and key, the positions key new with them, the other arrays the base's own."""
     a = items[0]
     shifted = a.splats.positions + np.float32(0.05 * frame) * a.splats.positions[:, ::-1]
-    kept = frozenset(("scales", "rotations", "opacities", "sh_dc", "sh_rest"))
+    kept = frozenset(ARRAYS) - {"positions"}
     return [replace(a, splats=replace(a.splats, positions=shifted), key=a.key + (frame,),
                     positions_key=a.key + ("moved", frame), base_key=a.key, base_fields=kept), items[1]]
 
@@ -99,16 +100,17 @@ def _settle(r):
         time.sleep(0.01)
 
 
-def test_moving_centres_keep_the_last_order_while_the_worker_sorts(gpu_ready):
+def test_moving_centres_keep_the_last_order_while_the_worker_sorts(gpu_ready, testdata):
     """An effect moving centres every frame (scrubbing a displace): the drawing thread
     draws the order it has, a permutation of the same splats, and takes each finished
     order even though the centres moved again since it was asked for; once they stop, the
     picture is the exact one. A new splat count is sorted inline: an old order of other
-    splats is never drawn."""
+    splats is never drawn. The moving object is test64.ply, turned from its RDF frame."""
     from addon.blender.viewport import DrawSettings, ViewportRenderer
 
-    items, cam = _items(), camera_for((0, 0, 0), 64, 48)
-    cam, lazy = _orbit(cam, 30), DrawSettings(sync_sort=False)
+    items, centre = two_objects(testdata)
+    items = [replace(i, key=(name, 0)) for name, i in zip("ab", items)]
+    cam, lazy = camera_for(centre, 64, 48), DrawSettings(sync_sort=False)
     r = ViewportRenderer(worker=True)
     try:
         draw_offscreen(items, cam, settings=lazy, renderer=r)
@@ -122,7 +124,7 @@ def test_moving_centres_keep_the_last_order_while_the_worker_sorts(gpu_ready):
         img, _ = draw_offscreen(_moved(items, 2), cam, settings=lazy, renderer=r)  # frame 2's own
         assert r.stats.sorts == 3
         assert psnr(img, draw_offscreen(_moved(items, 2), cam)[0]) == float("inf")
-        fewer = [items[0], replace(items[1], splats=items[1].splats.subset(np.arange(150)))]
+        fewer = [items[0], replace(items[1], splats=items[1].splats.subset(np.arange(items[1].splats.count // 2)))]
         img, _ = draw_offscreen(fewer, cam, settings=lazy, renderer=r)
         assert r.stats.sorts == 4 and r.stats.frame_sort > 0.0, "another layout: sorted inline"
         assert psnr(img, draw_offscreen(fewer, cam)[0]) == float("inf")

@@ -52,6 +52,7 @@ class ReferenceRenderer:
     """render() below as a core.renderer.Renderer (it keeps no state between frames)."""
 
     has_depth = has_holdout = has_panorama = has_defocus = has_early_termination = True
+    has_film = False  # the oracle of the frame itself; the film is the engine's step
 
     def render(self, items, camera, options):
         return render(items, camera, options)

@@ -17,7 +17,7 @@ from .camera import Camera
 from .scene import RenderItem, RenderOptions, RenderOutput
 
 CAPABILITIES = ("has_depth", "has_holdout", "has_panorama", "has_defocus",
-                "has_early_termination")
+                "has_early_termination", "has_film")
 
 
 @runtime_checkable
@@ -30,6 +30,7 @@ class Renderer(Protocol):
     has_panorama           it draws equirectangular cameras
     has_defocus            it draws depth of field (camera.defocus)
     has_early_termination  it honours options.early_termination (else always blends all)
+    has_film               it honours options.film (RenderOutput.film; else that is None)
     """
 
     has_depth: bool
@@ -37,6 +38,7 @@ class Renderer(Protocol):
     has_panorama: bool
     has_defocus: bool
     has_early_termination: bool
+    has_film: bool
 
     def render(self, items: list[RenderItem], camera: Camera,
                options: RenderOptions) -> RenderOutput: ...

@@ -47,6 +47,18 @@ class RenderItem:
 
 
 @dataclass(frozen=True)
+class Film:
+    """A request for the frame in the terms of Blender's render result as well
+    (RenderOutput.film), made by a renderer that has_film, so the engine's conversion
+    (blender/render/film.result_rect) need not run on the CPU.
+
+    under: the scene-linear RGB of the world composited under the splats (alpha then 1);
+    None leaves the film's alpha as the frame's."""
+
+    under: tuple | None = None
+
+
+@dataclass(frozen=True)
 class RenderOptions:
     antialiased: bool = False          # gsplat's opacity compensation for the 0.3 px^2 low-pass
     # Stop a pixel at transmittance < 1e-4 (INRIA's tile rasterizer). The reference stops at
@@ -64,6 +76,7 @@ class RenderOptions:
     # a pixel is drawn only where its centre depth is below the nearest surface's there.
     # Compared and hashed by its key (a hash of the triangles).
     holdout: Holdout | None = None
+    film: Film | None = None  # also return RenderOutput.film (renderers that has_film)
 
 
 @dataclass
@@ -75,7 +88,12 @@ class RenderOutput:
     that make its colour); inf where that alpha (the splats', without the background)
     stays below 0.5. Smooth along surfaces and through soft edges, which is what defocus
     and fog want from a Z pass; a faint floater in front moves it by its own small weight.
-    Early termination, where on, ends the sum where it ends the colour."""
+    Early termination, where on, ends the sum where it ends the colour.
+    film: None, or where options.film asked a renderer that has_film, the Combined pass of
+    Blender's render result: (H * W * 4,) float32, bottom-up rows, premultiplied
+    scene-linear, over Film.under where given; blender/render/film.result_rect(rgba,
+    Film.under) to float32 rounding (pinned by tests/gl/test_film_pass.py)."""
 
     rgba: np.ndarray
     depth: np.ndarray
+    film: np.ndarray | None = None

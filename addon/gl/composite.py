@@ -173,6 +173,10 @@ class Compositor:
             self.targets[(w, h)] = t
         return self.targets[(w, h)]
 
+    def colour(self, w: int, h: int):
+        """The colour target of the last tile of this size drawn (premultiplied, top row first)."""
+        return self.targets[(w, h)]["colour"]
+
     def programs_for(self, holdout: bool):
         """(draw, mark) programs with or without the holdout test (compiled once)."""
         if holdout not in self.variants:

@@ -11,6 +11,7 @@ from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
 from .composite import Compositor
 from .fallback import RecordTextures, cpu_records
+from .film import FilmPass
 from .holdout import HoldoutPass, Surface, active
 from .software import gl_flush, is_software
 from .sort import RadixSorter, cpu_order, sorts_on_gpu
@@ -40,6 +41,7 @@ class FrameState:
         self.compositor = Compositor(ctx, records, gl_flush(ctx) if is_software(self.gl_renderer) else None)
         self.holdout = HoldoutPass(ctx, stats, 430 if self.compute else 330)
         self.preprocess = {}  # compute programs by preprocess_defines
+        self.film_pass = None  # made on the first frame that asks for a film
         self.range = ctx.buffer(reserve=12) if self.compute else None
         self.dummy = ctx.buffer(reserve=16) if self.compute else None
         self.capacity = 0
@@ -172,36 +174,48 @@ class FrameState:
             self.stats["cpu_sorts"] += 1
             order, n = None, sum(item.splats.count for item in items)
             front_depths = records[1, :, 2]  # back to front: the draw stage's centre depths
-        rgba, depth = self._composite(camera, visible, options, surface, front_depths)
+        rgba, depth, film = self._composite(camera, visible, options, surface, front_depths)
         behind(rgba, options.background)
         self.stats["frames"] += 1
         self.stats["resident_objects"] = self.cache.resident
         self.last = (order, visible, n)
-        return RenderOutput(rgba, depth)
+        return RenderOutput(rgba, depth, film)
 
     def _composite(self, camera: Camera, visible: int, options: RenderOptions, surface=None,
                    front_depths=None):
-        """The frame's (rgba, depth), tile by tile; a frame of one tile is its arrays.
+        """The frame's (rgba, depth, film), tile by tile; a frame of one tile is its
+        arrays. film: the flat Combined pass where options.film asks for it, else None.
         surface: the frame's holdout (gl/holdout.Surface), or None."""
         frame_tiles = list(tiles(camera.width, camera.height))
         args = (visible, options, surface, front_depths)
         if len(frame_tiles) == 1:
-            return self._run_tile(frame_tiles[0], *args)
+            rgba, depth, film = self._run_tile(frame_tiles[0], *args)
+            return rgba, depth, None if film is None else film.reshape(-1)
         rgba = np.empty((camera.height, camera.width, 4), np.float32)
         depth = np.empty((camera.height, camera.width), np.float32)
+        film = np.empty_like(rgba) if options.film is not None else None
         for tile in frame_tiles:
             x0, y0, w, h = tile
             out = (slice(y0, y0 + h), slice(x0, x0 + w))
-            rgba[out], depth[out] = self._run_tile(tile, *args)
-        return rgba, depth
+            rgba[out], depth[out], tile_film = self._run_tile(tile, *args)
+            if film is not None:  # bottom-up: the tile's rows end h - y0 rows from the top
+                film[camera.height - y0 - h:camera.height - y0, x0:x0 + w] = tile_film
+        return rgba, depth, None if film is None else film.reshape(-1)
 
     def _run_tile(self, tile, visible: int, options: RenderOptions, surface=None, front_depths=None):
-        out = self.compositor.run(tile, visible, options.early_termination, self.want_depth,
-                                  options.capped_extent, surface, front_depths)
+        rgba, depth = self.compositor.run(tile, visible, options.early_termination, self.want_depth,
+                                          options.capped_extent, surface, front_depths)
         self.stats["splat_draws"] += self.compositor.splat_draws
         self.stats["saturation_passes"] += self.compositor.breaks
         self.stats["draw_flushes"] += self.compositor.flushes
-        return out
+        film = None
+        if options.film is not None:
+            if self.film_pass is None:
+                self.film_pass = FilmPass(self.ctx, "ssbo" if self.compute else "texture")
+            _, _, w, h = tile
+            film = self.film_pass.run(self.compositor.colour(w, h), w, h, options.film,
+                                      options.background)
+        return rgba, depth, film
 
     def last_order(self) -> np.ndarray:
         """Global indices (concatenated items) of the last frame, back to front."""
@@ -222,7 +236,7 @@ class FrameState:
 
     def release(self):
         self.cache.release()
-        for owner in (self.sorter, self.record_textures, self.compositor, self.holdout):
+        for owner in (self.sorter, self.record_textures, self.compositor, self.holdout, self.film_pass):
             if owner is not None:
                 owner.release()
         for buf in list(self.arrays.values()) + [self.range, self.dummy]:

@@ -57,7 +57,7 @@ class OffscreenRenderer:
     fragment, as the reference does (gl/holdout.py).
     """
 
-    has_holdout = has_panorama = has_defocus = has_early_termination = True
+    has_holdout = has_panorama = has_defocus = has_early_termination = has_film = True
 
     def __init__(self, context_factory=_create_context, depth_pass: bool = True,
                  compute: bool | None = None):

@@ -19,7 +19,7 @@ import re
 import numpy as np
 import pytest
 
-from addon.core import reference, render_constants, sh
+from addon.core import colorspace, reference, render_constants, sh
 from addon.core.camera import equirect_camera, look_at, simple_camera
 from addon.core.holdout import Holdout
 from addon.core.renderer import CAPABILITIES, Renderer
@@ -66,7 +66,9 @@ def _twins():
              for name, glsl in render_constants.GLSL_TWINS.items()]
     pairs += [("composite.ENC_BASE", composite.ENC_BASE, "SL_ENC_BASE"),
               ("composite.HOLDOUT_BIAS", composite.HOLDOUT_BIAS, "SL_HOLDOUT_BIAS"),
-              ("sh.C0", sh.C0, "SL_SH_C0"), ("sh.C1", sh.C1, "SL_SH_C1")]
+              ("sh.C0", sh.C0, "SL_SH_C0"), ("sh.C1", sh.C1, "SL_SH_C1"),
+              ("colorspace._A", colorspace._A, "SL_SRGB_A"),
+              ("colorspace._SRGB_KNEE", colorspace._SRGB_KNEE, "SL_SRGB_KNEE")]
     pairs += [(f"sh.C2[{i}]", c, f"SL_SH_C2_{i}") for i, c in enumerate(sh.C2)]
     pairs += [(f"sh.C3[{i}]", c, f"SL_SH_C3_{i}") for i, c in enumerate(sh.C3)]
     return pairs
@@ -127,7 +129,7 @@ def _paths(cell: str) -> list[pathlib.Path]:
 def test_stage_table_names_existing_files():
     rows = stage_table()
     assert [r["stage"].split(":")[0] for r in rows] == [
-        "preprocess", "sort", "composite", "holdout", "shared"]
+        "preprocess", "sort", "composite", "holdout", "film", "shared"]
     for row in rows:
         for column in ("reference", "gl", "viewport", "test"):
             for path in _paths(row[column]):

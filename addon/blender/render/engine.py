@@ -24,6 +24,7 @@ import bpy
 from ...core import shutter
 from ...core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 from ...core.errors import SplatFormatError
+from ...core.scene import Film
 from ...core.holdout import combine_depth, holdout_depth
 from ...core.stop import SigintGuard, stop_requested
 from . import mesh_layer, motion_blur
@@ -152,17 +153,23 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             if (result.resolution_x, result.resolution_y) != (region.width, region.height):
                 raise ValueError(f"render result is {result.resolution_x}x{result.resolution_y}, "
                                  f"expected the region {region.width}x{region.height}")
-            # One view, or each eye of a stereo/multi-view render.
-            frame = _Frame(depsgraph, camera_obj, renderer, region, settings.options(),
-                           [v.name for v in result.views], settings.meshes, drawn and want_depth)
-            # films: display sRGB from the renderer; motion blur's average is scene-linear
-            films = self._blurred(frame, times) if times else self._films(frame, items)
             # The world: under the mesh layer where it is drawn, else under the splats
             # (the evaluated world: its colour may be animated).
             world = None if r.film_transparent or drawn else \
                 world_background(depsgraph.scene_eval.world)
-            for view, (rgba, depth) in films.items():
-                _write_view(result, view, result_rect(rgba, world, srgb=not times), depth)
+            options = settings.options()
+            if renderer.has_film and not times:  # the renderer converts its frame itself
+                options = dataclasses.replace(
+                    options, film=Film(None if world is None else tuple(world)))
+            # One view, or each eye of a stereo/multi-view render.
+            frame = _Frame(depsgraph, camera_obj, renderer, region, options,
+                           [v.name for v in result.views], settings.meshes, drawn and want_depth)
+            # films: display sRGB from the renderer; motion blur's average is scene-linear
+            films = self._blurred(frame, times) if times else self._films(frame, items)
+            for view, (rgba, depth, film) in films.items():
+                if film is None:
+                    film = result_rect(rgba, world, srgb=not times)
+                _write_view(result, view, film, depth)
         except BaseException:
             self.end_result(result, cancel=True)
             raise
@@ -178,8 +185,9 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
                                  + mesh_layer.why_not_attached(scene))
 
     def _films(self, frame, items) -> dict:
-        """{view: (the renderer's premultiplied sRGB RGBA, its view depth)} of the scene as
-        the depsgraph holds it now (result_rect and _write_view put them in Blender's terms)."""
+        """{view: (the renderer's premultiplied sRGB RGBA, its view depth, its film or None)}
+        of the scene as the depsgraph holds it now (result_rect, where the renderer made no
+        film, and _write_view put them in Blender's terms)."""
         films = {}
         options = frame.options
         holdout = holdout_for(frame.depsgraph) if frame.meshes != "IGNORE" else None
@@ -194,7 +202,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             depth = out.depth
             if frame.mesh_depth and holdout is not None and frame.renderer.has_depth:
                 depth = combine_depth(depth, out.rgba[..., 3], holdout_depth(holdout, camera))
-            films[view] = (out.rgba, depth)
+            films[view] = (out.rgba, depth, out.film)
         return films
 
     def _blurred(self, frame, times) -> dict:
@@ -208,13 +216,13 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         try:
             for k, time in enumerate(times):
                 self.frame_set(*shutter.split_time(time))
-                for view, (rgba, z) in self._films(frame, collect_items(frame.depsgraph)).items():
+                for view, (rgba, z, _) in self._films(frame, collect_items(frame.depsgraph)).items():
                     sums[view].add(to_scene_linear(rgba))
                     if k == middle:
                         depth[view] = z
         finally:
             self.frame_set(current, 0.0)
-        return {view: (sums[view].result(), depth[view]) for view in frame.views}
+        return {view: (sums[view].result(), depth[view], None) for view in frame.views}
 
     def _view_camera(self, scene, camera_obj, depsgraph):
         """The camera of the active view: Blender offsets it per eye in multi-view renders."""

@@ -34,7 +34,7 @@ def backend_name() -> str:
 class GpuModuleRenderer:
     """render(items, camera, options) -> RenderOutput: a core.renderer.Renderer."""
 
-    has_depth = has_holdout = has_panorama = has_defocus = has_early_termination = False
+    has_depth = has_holdout = has_panorama = has_defocus = has_early_termination = has_film = False
 
     def __init__(self):
         # Sorting inline: a final frame must draw its own order, not the last one.

@@ -291,3 +291,33 @@ def test_stereo_renders_each_eye_from_its_own_camera(bpy_empty, tmp_path):
     # centre to far below 0.05 px; perspective skews a 0.1-unit splat by < 1e-3 px.
     np.testing.assert_allclose(_centroid(left), [48 - half, 32], atol=0.05)
     np.testing.assert_allclose(_centroid(right), [48 + half, 32], atol=0.05)
+
+
+@pytest.mark.parametrize("transparent", [True, False], ids=["transparent", "world"])
+def test_the_offscreen_renderers_film_is_the_engines_conversion(bpy_empty, testdata, tmp_path,
+                                                                monkeypatch, transparent):
+    """The offscreen renderer converts its frame itself (gl/film.py): the Combined pass it
+    hands Blender is the one the engine's own conversion (film.result_rect) makes of the
+    same frame, within the pow rounding tests/gl/test_film_pass.py allows. guitar.ply with
+    its importer's axes, under an orbit camera; over a world colour or transparent."""
+    from addon.gl import film
+
+    bpy = bpy_empty
+    scene, _, _ = guitar_scene(bpy, testdata, (1, 2), 96, 64, 20_000)
+    scene.render.film_transparent = transparent
+    if not transparent:
+        scene.world = bpy.data.worlds.new("World")
+        scene.world.color = (0.05, 0.2, 0.6)
+    calls = []
+    run = film.FilmPass.run
+    monkeypatch.setattr(film.FilmPass, "run", lambda self, *a: calls.append(a) or run(self, *a))
+    on_gpu = _render_size(bpy, scene, tmp_path, "film", "SPLATLINE")
+    assert len(calls) == 1
+    from addon.gl import OffscreenRenderer
+
+    monkeypatch.setattr(OffscreenRenderer, "has_film", False)  # the engine's numpy conversion
+    on_cpu = _render_size(bpy, scene, tmp_path, "numpy", "SPLATLINE")
+    assert len(calls) == 1
+    alpha = on_cpu[..., 3]
+    assert (alpha == 1.0).all() if not transparent else (alpha == 0).any() and (alpha > 0.99).any()
+    np.testing.assert_allclose(on_gpu, on_cpu, rtol=2e-6, atol=1e-7)

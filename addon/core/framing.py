@@ -25,6 +25,7 @@ import numpy as np
 
 from .axes import matrix_for
 from .camera import look_at
+from .percentile import percentiles
 
 LOW_PERCENTILE, HIGH_PERCENTILE = 2.0, 98.0
 MARGIN = 1.15  # the percentile box trims the subject's tips (a guitar's headstock): give them room
@@ -73,12 +74,15 @@ class Bounds:
 
 
 def robust_bounds(points_world, low=LOW_PERCENTILE, high=HIGH_PERCENTILE) -> Bounds:
-    """Per-axis percentile box of the finite points, and its middle."""
+    """Per-axis percentile box of the finite points, and its middle: np.percentile's values
+    (core/percentile.py finds them without partitioning a million centres)."""
     pts = np.asarray(points_world, np.float64).reshape(-1, 3)
-    pts = pts[_all_columns(np.isfinite(pts))]  # a copy of our own: percentile may reorder it
-    if len(pts) == 0:
+    finite = _all_columns(np.isfinite(pts))
+    every = bool(finite.all())
+    if not every and not finite.any():
         raise ValueError("no finite splat centres to frame")
-    lo, hi = np.percentile(pts, [low, high], axis=0, overwrite_input=True)
+    columns = [np.ascontiguousarray(pts[:, c]) if every else pts[finite, c] for c in range(3)]
+    lo, hi = np.array([percentiles(column, (low, high)) for column in columns]).T
     return Bounds((lo + hi) / 2.0, lo, hi)
 
 
@@ -86,6 +90,17 @@ def _all_columns(mask) -> np.ndarray:
     """mask.all(axis=1) of an (N, 3) boolean array, a column at a time: numpy's reduction
     along a row of 3 runs a loop per row, several times slower at a million points."""
     return mask[:, 0] & mask[:, 1] & mask[:, 2]
+
+
+def _in_box(pts, bounds: Bounds) -> np.ndarray:
+    """Whether each (N, 3) point lies in the box, bounds included: one (N,) mask built a
+    bound at a time (0.3x the time of comparing whole rows, then reducing them)."""
+    mask = pts[:, 0] >= bounds.low[0]
+    for c in range(3):
+        if c:
+            mask &= pts[:, c] >= bounds.low[c]
+        mask &= pts[:, c] <= bounds.high[c]
+    return mask
 
 
 def capture_axes(axes: str, object_rotation) -> tuple[np.ndarray, np.ndarray]:
@@ -124,7 +139,8 @@ def front_direction(points_world, bounds: Bounds, up, forward) -> np.ndarray:
     ahead = _level(up, forward)
     across = np.cross(up, ahead)
     pts = np.asarray(points_world, np.float64).reshape(-1, 3)
-    inside = pts[_all_columns((pts >= bounds.low) & (pts <= bounds.high))] - bounds.centre
+    inside = np.compress(_in_box(pts, bounds), pts, axis=0)  # a copy: shifted in place
+    inside -= bounds.centre
     if len(inside) < 3:
         return ahead
     spread = np.cov(np.stack([rows_times(inside, ahead), rows_times(inside, across)]))

@@ -87,6 +87,20 @@ def test_rows_times_equals_the_whole_product(count):
         np.testing.assert_array_equal(got, want)
 
 
+def test_in_box_is_the_rows_all_within_the_bounds():
+    """front_direction's mask, a bound at a time, is the readable whole-row comparison,
+    points on the bounds included."""
+    rng = np.random.default_rng(5)
+    pts = rng.normal(size=(50_000, 3)) * (1.0, 2.0, 0.5)
+    bounds = framing.robust_bounds(pts)
+    pts[:10] = bounds.low  # on the box's faces
+    pts[10:20] = bounds.high
+    pts[20, 1] = np.nan
+    want = ((pts >= bounds.low) & (pts <= bounds.high)).all(axis=1)
+    got = framing._in_box(pts, bounds)
+    assert got.dtype == bool and np.array_equal(got, want) and want[:20].all() and not want[20]
+
+
 def _planted(count=5000, degree=3, seed=0):
     rng = np.random.default_rng(seed)
     splats = SplatSet.allocate(count, degree)

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import SplatFormatError
+from .matrix_inverse import inverse4
 from .quaternion import to_matrix
 
 PLY_TO_PLAYCANVAS = np.diag([-1.0, -1.0, 1.0, 1.0])  # Rz(180): capture RDF -> PlayCanvas world
@@ -239,11 +240,12 @@ def blender_poses(track: CameraTrack, capture_to_world) -> list:
     """
     from .camera import look_at
 
-    to_world = np.asarray(capture_to_world, np.float64) @ np.linalg.inv(track.capture_to_playcanvas)
+    # inverse4, not LAPACK's inv: a key each would wake OpenBLAS's spinning threads
+    to_world = np.asarray(capture_to_world, np.float64) @ inverse4(track.capture_to_playcanvas)
     linear = to_world[:3, :3]
     poses = []
     for key in track.keys:
         eye = linear @ key.position + to_world[:3, 3]
         target = linear @ key.target + to_world[:3, 3]
-        poses.append((key.frame, np.linalg.inv(look_at(eye, target, linear @ key.up)), key.fov))
+        poses.append((key.frame, inverse4(look_at(eye, target, linear @ key.up)), key.fov))
     return poses

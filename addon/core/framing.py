@@ -25,6 +25,7 @@ import numpy as np
 
 from .axes import matrix_for
 from .camera import look_at
+from .matrix_inverse import inverse4
 from .percentile import percentiles
 
 LOW_PERCENTILE, HIGH_PERCENTILE = 2.0, 98.0
@@ -258,7 +259,7 @@ def _pose_at(bounds, up, forward, distance, azimuth, elevation) -> np.ndarray:
     back = -(forward * math.cos(azimuth) + side * math.sin(azimuth))
     direction = back * math.cos(elevation) + up * math.sin(elevation)
     eye = bounds.centre + distance * direction
-    return np.linalg.inv(look_at(eye, bounds.centre, up))
+    return inverse4(look_at(eye, bounds.centre, up))  # not LAPACK's: see matrix_inverse.py
 
 
 def clip_range(bounds: Bounds, distance: float) -> tuple[float, float]:

@@ -169,9 +169,16 @@ def front_pose(bounds: Bounds, up, forward, distance: float, elevation_deg: floa
 def orbit_poses(bounds: Bounds, up, forward, distance: float, count: int,
                 elevation_deg: float = ELEVATION_DEG) -> list:
     """`count` camera-to-world matrices, one a frame, evenly round a full turn (the turn's
-    end is the next loop's start, so a looped render does not repeat a frame)."""
-    return [_pose_at(bounds, up, forward, distance, 2.0 * math.pi * i / count,
-                     math.radians(elevation_deg)) for i in range(count)]
+    end is the next loop's start, so a looped render does not repeat a frame). _pose_at's
+    poses to rounding, all at once: one each was 25 ms of a command-line import's 120
+    frames (tests/core/test_import_speed_paths.py pins them)."""
+    azimuths = [2.0 * math.pi * i / count for i in range(count)]
+    rotations = view_rotations(up, forward, azimuths, math.radians(elevation_deg))
+    poses = np.zeros((count, 4, 4))
+    poses[:, :3, :3] = rotations
+    poses[:, :3, 3] = np.asarray(bounds.centre, np.float64) + distance * rotations[:, :, 2]
+    poses[:, 3, 3] = 1.0
+    return list(poses)
 
 
 def orbit_azimuths() -> np.ndarray:

@@ -56,6 +56,20 @@ def test_view_rotations_equal_pose_at(up, forward, elevation):
 
 
 @pytest.mark.parametrize("up,forward", AXES)
+@pytest.mark.parametrize("elevation", [0.0, 20.0, -35.0, 89.9])
+def test_orbit_poses_are_pose_at_poses(up, forward, elevation):
+    """The orbit's poses, made all at once, are _pose_at's one by one to rounding: the
+    rotation as view_rotations pins it, the eye to the rounding of distance x direction."""
+    up, forward = _unit(up), _unit(forward)
+    for centre, distance in (((0.0, 0.0, 0.0), 1.0), ((120.0, -40.0, 7.5), 3.0)):
+        got = framing.orbit_poses(_bounds(centre), up, forward, distance, 120, elevation)
+        want = [framing._pose_at(_bounds(centre), up, forward, distance, 2.0 * math.pi * i / 120,
+                                 math.radians(elevation)) for i in range(120)]
+        assert len(got) == 120 and all(p.shape == (4, 4) for p in got)
+        np.testing.assert_allclose(np.stack(got), np.stack(want), rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("up,forward", AXES)
 @pytest.mark.parametrize("elevation", [0.0, 20.0, -35.0])
 def test_fill_distance_fills_through_pose_at(up, forward, elevation):
     """The distance found fills FILL in the widest of the views as _pose_at poses them, and

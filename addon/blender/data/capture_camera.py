@@ -29,9 +29,12 @@ def splat_world_points(objects, own_transforms=False) -> np.ndarray:
     transforms place them (see _own_transforms), not their last evaluated matrix_world."""
     parts = []
     for obj in objects:
-        local = read_positions(obj.data).astype(np.float64)
         matrix = np.array(obj.matrix_basis if own_transforms else obj.matrix_world, np.float64)
-        parts.append(framing.rows_times(local, matrix[:3, :3].T) + matrix[:3, 3])
+        world = framing.rows_times(read_positions(obj.data), matrix[:3, :3].T)
+        world += matrix[:3, 3]
+        parts.append(world)
+    if len(parts) == 1:  # one capture (a command-line import): no 24 MB copy a million
+        return parts[0]
     return np.concatenate(parts) if parts else np.zeros((0, 3))
 
 

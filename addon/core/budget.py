@@ -101,7 +101,10 @@ def check(what, nbytes: int, allow: str, detail: str = "") -> None:
 
 
 FRAME_BYTES_PER_PIXEL = 4 * 4 + 4  # RGBA float32 + a float32 depth
-FRAME_COPIES = 4  # the renderer's target, its read-back, Blender's render result and the file's buffer
+# the renderer's target and its film target (gl/film.py), their read-backs, Blender's render
+# result and the file's buffer (without a film pass, the CPU conversion's output stands in
+# for the film's two)
+FRAME_COPIES = 6
 
 
 def frame_bytes(width: int, height: int, passes: int = 1) -> int:

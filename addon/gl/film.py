@@ -2,7 +2,9 @@
 (core/scene.py Film, shaders/gl_film.frag), so the engine reads back its Combined pass
 as it is, instead of converting the frame on the CPU (blender/render/film.result_rect,
 the reference: about 36 ms a 1080p frame on two cores, where this pass's draw is a few).
-One full-tile triangle into an RGBA32F target, read back bottom-up."""
+One full-tile triangle into an RGBA32F target, read back bottom-up. The target is kept for
+the next frame of that tile size: one more buffer the size of the colour target, counted in
+core/budget.FRAME_COPIES."""
 from __future__ import annotations
 
 import numpy as np

@@ -24,8 +24,8 @@ import bpy
 from ...core import shutter
 from ...core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 from ...core.errors import SplatFormatError
-from ...core.scene import Film
 from ...core.holdout import combine_depth, holdout_depth
+from ...core.scene import Film
 from ...core.stop import SigintGuard, stop_requested
 from . import mesh_layer, motion_blur
 from . import backend as render_backend

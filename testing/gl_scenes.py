@@ -8,6 +8,7 @@ from dataclasses import replace
 from addon.core import reference
 from addon.core.axes import matrix_for
 from addon.core.camera import look_at, simple_camera
+from addon.core.formats import read
 from testing import synth
 from addon.core.preprocess import project
 from addon.core.scene import RenderItem, RenderOptions
@@ -80,3 +81,12 @@ def assert_depth_matches(out, items, cam, options: RenderOptions, window=None):
     err = np.abs(out.depth[both].astype(np.float64) - ref.depth[both])
     tight = err <= 2e-5 * np.abs(ref.depth[both]) + 2e-4 * span
     assert tight.mean() > 0.995 and (err <= 0.022 * span).all()
+
+
+def guitar_with_axes(testdata):
+    """guitar.ply (90,854 splats) with its real (RDF) axes, and a camera framing it."""
+    splats = read(testdata / "guitar.ply")
+    world = np.eye(4)
+    world[:3, :3] = matrix_for(splats.axes)
+    item = RenderItem(splats, world=world, key=("guitar", 0))
+    return item, framing_camera(item, 320, 240, distance=1.1)

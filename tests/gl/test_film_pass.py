@@ -15,9 +15,7 @@ import pytest
 from addon.blender.render.film import result_rect
 from addon.core.scene import Film, RenderItem, RenderOptions
 from addon.gl import OffscreenRenderer, frame
-from testing.gl_scenes import random_splats, world_for
-
-from .test_gl_composite import guitar_with_axes
+from testing.gl_scenes import guitar_with_axes, random_splats, world_for
 
 RTOL, ATOL = 2e-6, 1e-7
 WORLD = (0.05, 0.2, 0.6)  # scene-linear

@@ -14,14 +14,12 @@ import numpy as np
 import pytest
 
 from addon.core import reference
-from addon.core.axes import matrix_for
 from addon.core.camera import simple_camera
-from addon.core.formats import read
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer, composite, frame
 from addon.gl.software import is_software
-from testing.gl_scenes import assert_depth_matches, framing_camera, psnr
+from testing.gl_scenes import assert_depth_matches, framing_camera, guitar_with_axes, psnr
 
 MIN_PSNR = 60.0
 C0 = 0.28209479177387814
@@ -53,15 +51,6 @@ def layers(count: int = 12, per_side=(64, 48), opacity: float = 0.95, seed: int 
 
 def layers_camera(width=96, height=72):
     return simple_camera(width, height, 60.0, np.eye(4), near=0.1, far=100.0)
-
-
-def guitar_with_axes(testdata):
-    """guitar.ply (90,854 splats) with its real (RDF) axes, and a camera framing it."""
-    splats = read(testdata / "guitar.ply")
-    world = np.eye(4)
-    world[:3, :3] = matrix_for(splats.axes)
-    item = RenderItem(splats, world=world, key=("guitar", 0))
-    return item, framing_camera(item, 320, 240, distance=1.1)
 
 
 def assert_early_termination_bound(stop, full, trimmed: bool):

@@ -8,10 +8,13 @@
 //   rec_pos    centre u, v (pixels, y down), NDC depth of the centre, quad half-size
 //   rec_conic  conic a, b, c (px^-2), opacity after the look and antialiasing
 //   rec_color  colour after SH, grade and output conversion; display mode (0, 1, 2)
-// Per-object table (9 texels an object): columns of cam_from_local with splat scale,
+// Per-object table (10 texels an object): columns of cam_from_local with splat scale,
 // opacity scale, SH degree; eye hi + mode; eye lo + sh_only; the 3x4 colour matrix;
-// orthographic view direction + the object's first splat index.
+// orthographic view direction + the object's first splat index; the object's colour
+// effects (first texel, count, whether they read rest_tex), whose rows follow the objects'.
 // Everything is camera-relative: t = cam_from_local * (p - eye), eye split hi + lo.
+
+const int OBJECT_TEXELS = 10;
 
 vec4 fetch(sampler2D tex, int texel)
 {
@@ -20,7 +23,7 @@ vec4 fetch(sampler2D tex, int texel)
 
 vec4 object_texel(int object, int k)
 {
-    return texelFetch(object_tex, ivec2(object * 9 + k, 0), 0);
+    return texelFetch(object_tex, ivec2(object * OBJECT_TEXELS + k, 0), 0);
 }
 
 // The object whose splats include `splat`: the last one starting at or before it.
@@ -91,8 +94,7 @@ void main()
     bool sh_only = eye_lo.w > 0.5, ortho = flags.x != 0;
 
     vec4 p = fetch(pos_tex, splat);
-    float opacity = p.w * o1.w;  // NaN marks a splat packing found undrawable
-    if (!sl_is_finite3(p.xyz) || !sl_is_finite(opacity)) return;
+    if (!sl_is_finite3(p.xyz) || !sl_is_finite(p.w)) return;  // NaN: packing found it undrawable
     int base = splat * 9, off = base % 4;
     vec4 tx[3];
     for (int j = 0; j < 3; j++) tx[j] = fetch(shape_tex, base / 4 + j);
@@ -101,6 +103,14 @@ void main()
     vec3 s = vec3(v[3], v[4], v[5]);
     vec4 q = quat_from_three(vec3(v[0], v[1], v[2]), int(s.x < 0.0) + 2 * int(s.y < 0.0));
     vec3 dc = vec3(v[6], v[7], v[8]);
+    vec3 scale = abs(s);
+    float opacity = p.w;
+    vec4 effects = object_texel(obj, 9);
+    if (effects.y > 0.0) {
+        vec3 rest = effects.z > 0.5 ? fetch(rest_tex, splat).xyz : p.xyz;
+        apply_effects(int(effects.x), int(effects.y), p.xyz, rest, opacity, scale, dc);
+    }
+    opacity *= o1.w;
 
     vec3 rel = (p.xyz - eye_hi.xyz) - eye_lo.xyz;
     vec3 t = cam_from_local * rel;
@@ -113,7 +123,7 @@ void main()
         radius = misc.x;
         opacity = 1.0;
     } else {
-        mat3 axes = sl_axes_camera(cam_from_local, q, abs(s) * splat_scale);
+        mat3 axes = sl_axes_camera(cam_from_local, q, scale * splat_scale);
         vec4 cov = sl_cov2d(axes, sl_jacobian(t, focal_centre.xy, jac_bounds, ortho));
         float lambda_max;
         if (!sl_conic(cov, flags.y != 0, opacity, conic, lambda_max) || !(opacity >= SL_ALPHA_MIN)) return;

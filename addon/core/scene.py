@@ -28,6 +28,9 @@ class RenderItem:
     base_fields    the SplatSet fields that are that data's own arrays, untouched: under an
                    equal base_key the very same array holds the same values, so a renderer
                    may keep what it uploaded of them while `key` changes with the effects
+    deferred       colour effects left out of `splats` for the renderer to apply itself
+                   (effects.deferral.Deferred, in order); only the viewport asks for them
+    rest_positions the effects' input centres, which an `at_rest` deferred effect measures
     """
 
     splats: SplatSet
@@ -40,6 +43,8 @@ class RenderItem:
     positions_key: tuple | None = None
     base_key: tuple | None = None
     base_fields: frozenset = frozenset()
+    deferred: tuple = ()
+    rest_positions: np.ndarray | None = None
 
     @property
     def effective_sh_degree(self) -> int:

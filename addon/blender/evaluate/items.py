@@ -21,6 +21,7 @@ import bpy
 from ...core import look as core_look
 from ...core.effects import evaluate_stack
 from ...core.effects.common import stop_helper
+from ...core.effects.deferral import split_stack
 from ...core.effects.recycle import BUFFERS
 from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import ARRAYS
@@ -160,12 +161,14 @@ def _crop(look):
     return box, sphere
 
 
-def item_for(obj_eval, depsgraph=None) -> RenderItem:
+def item_for(obj_eval, depsgraph=None, defer=None) -> RenderItem:
     """The RenderItem of one evaluated splat object.
 
     key: (name, base key) while the splats are the base data itself; with crop or effects,
     (name, base key, crop, effect signatures incl. time for time-driven effects), so equal
     keys mean equal splats and a renderer's per-key upload cache never shows a stale frame.
+    defer(params) -> bool: the caller applies such colour effects itself where the stack
+    allows it (core.effects.deferral); they are then on item.deferred, not in its splats.
     """
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     world = np.array(obj_eval.matrix_world, np.float64)
@@ -184,9 +187,10 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
     time, fps = scene_time(depsgraph)
     effects = effect_params.stack(obj_eval, depsgraph, world, time, fps, splats, base_key,
                                   base_splats)
-    result = evaluate_stack(splats, effects.params, time)
+    on_cpu, deferred = split_stack(effects.params, defer) if defer else (effects.params, ())
+    result = evaluate_stack(splats, on_cpu, time)
     key = (name, base_key)
-    if result.splats is not base:
+    if result.splats is not base or deferred:
         key = (name, base_key, (box, sphere), effects.signature)
     positions_key = (name, base_key, effects.moving) if result.positions_changed else (name, base_key)
     return RenderItem(
@@ -194,7 +198,8 @@ def item_for(obj_eval, depsgraph=None) -> RenderItem:
         opacity_scale=float(look.opacity) if look.visible else 0.0, sh_degree=int(look.max_sh_degree),
         color_matrix=_color_matrix(look),
         key=key, positions_key=positions_key, base_key=(name, base_key),
-        base_fields=frozenset(f for f in SPLAT_FIELDS if getattr(result.splats, f) is getattr(base, f)))
+        base_fields=frozenset(f for f in SPLAT_FIELDS if getattr(result.splats, f) is getattr(base, f)),
+        deferred=deferred, rest_positions=splats.positions if deferred else None)
 
 
 def _color_matrix(look):
@@ -224,8 +229,8 @@ def shown(obj_eval) -> bool:
     return bool(getattr(look, "visible", True))
 
 
-def collect_items(depsgraph) -> list[RenderItem]:
-    return [item_for(obj, depsgraph) for obj in splat_objects(depsgraph) if shown(obj)]
+def collect_items(depsgraph, defer=None) -> list[RenderItem]:
+    return [item_for(obj, depsgraph, defer) for obj in splat_objects(depsgraph) if shown(obj)]
 
 
 @bpy.app.handlers.persistent

@@ -31,7 +31,8 @@ DATA = ("pos", "shape", "sh", "order")
 # per-splat view records the preprocess pass writes: name -> format. float32: a half
 # colour record cost 7 dB against the reference on the bench's degree-3 scene.
 RECORDS = {"rec_pos": "RGBA32F", "rec_conic": "RGBA32F", "rec_color": "RGBA32F"}
-FORMATS = {"pos": "RGBA32F", "shape": "RGBA16F", "sh": "RGBA16F", "order": "R32F", "objects": "RGBA32F"}
+FORMATS = {"pos": "RGBA32F", "shape": "RGBA16F", "sh": "RGBA16F", "order": "R32F", "objects": "RGBA32F",
+           "rest": "RGBA32F"}
 TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4}
 
 
@@ -58,13 +59,13 @@ def _create(info):
 def preprocess_shader():
     info = gpu.types.GPUShaderCreateInfo()
     _constants(info)
-    for slot, name in enumerate(("pos_tex", "shape_tex", "sh_tex", "order_tex", "object_tex")):
+    for slot, name in enumerate(("pos_tex", "shape_tex", "sh_tex", "order_tex", "object_tex", "rest_tex")):
         info.sampler(slot, "FLOAT_2D", name)
     info.vertex_in(0, "VEC2", "corner")
     for slot, name in enumerate(RECORDS):
         info.fragment_out(slot, "VEC4", name)
     info.vertex_source(_source("viewport_preprocess_vert.glsl"))
-    info.fragment_source(_source("splat_math.glsl", "viewport_preprocess_frag.glsl"))
+    info.fragment_source(_source("splat_math.glsl", "viewport_effects.glsl", "viewport_preprocess_frag.glsl"))
     return _create(info)
 
 
@@ -193,6 +194,10 @@ class SplatGPU:
                 gpu.state.color_mask_set(True, True, True, True)
         self.version += 1
 
+    def drop(self, name: str) -> None:
+        if self.textures.pop(name, None) is not None:
+            self.version += 1
+
     def set_order(self, order: np.ndarray) -> None:
         if order.size and int(order.max()) >= 1 << 24:
             raise ValueError("more than 2^24 splats: indices no longer exact in an R32F texture")
@@ -215,7 +220,7 @@ class SplatGPU:
 
     def per_splat_bytes(self) -> dict:
         """{texture: bytes} of every texture whose size grows with the splat count."""
-        named = {**{n: self.textures[n] for n in DATA if n in self.textures}, **self.records}
+        named = {**{n: self.textures[n] for n in (*DATA, "rest") if n in self.textures}, **self.records}
         return {n: texture_bytes(t) for n, t in named.items()}
 
     def _records_target(self) -> int:
@@ -249,6 +254,8 @@ class SplatGPU:
             for name in ("pos", "shape", "sh", "order"):
                 self.pre_shader.uniform_sampler(f"{name}_tex", self.textures[name])
             self.pre_shader.uniform_sampler("object_tex", self.textures["objects"])
+            # read only by objects whose table row says so: any texture will do otherwise
+            self.pre_shader.uniform_sampler("rest_tex", self.textures.get("rest", self.textures["pos"]))
             self.pre_batch.draw(self.pre_shader)
         self.records_for = key
         self.preprocesses += 1

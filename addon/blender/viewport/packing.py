@@ -34,7 +34,7 @@ from ...core.splats import SplatSet, sh_coeff_count
 WIDTH = 4096          # texels per row of every data texture
 MAX_HEIGHT = 16384    # the smallest GL_MAX_TEXTURE_SIZE Blender supports
 SHAPE_VALUES = 9
-OBJECT_TEXELS = 9     # per-object table row: see object_rows
+OBJECT_TEXELS = 10    # per-object table row: see object_rows
 HALF_MAX = 65504.0
 HALF_TINY = 2.0 ** -24  # the smallest positive half: stands for a zero scale, keeping its sign
 _OTHERS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
@@ -180,6 +180,15 @@ def pack_pos(splats: SplatSet, ok: np.ndarray) -> np.ndarray:
     return flat
 
 
+def pack_xyz(positions: np.ndarray | None, count: int) -> np.ndarray:
+    """Centres as pos-texture texels (w 0); None: zeros for `count` splats."""
+    flat = np.zeros((padded(count), 4), np.float32)
+    if positions is not None:
+        for axis in range(3):  # a column at a time: 3.5x faster than flat[:n, :3] = ...
+            flat[:count, axis] = positions[:, axis]
+    return flat
+
+
 def smallest_three(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(N, 3) the normalised quaternion's three smallest components with the largest made
     positive (q and -q are one rotation), and (N,) the index of the largest."""
@@ -246,9 +255,11 @@ def concatenate(parts: list[np.ndarray], counts: list[int], per_splat: int) -> n
 
 def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: float,
                 sh_degree: int, mode: int, sh_only: bool, color_matrix: np.ndarray,
-                ortho: bool, first: int) -> np.ndarray:
+                ortho: bool, first: int, effects: tuple = (0, 0, False)) -> np.ndarray:
     """(OBJECT_TEXELS, 4) float32 for one object (layout in viewport_preprocess_frag.glsl).
-    first: the object's first splat in the concatenated data (exact in float to 2^24)."""
+    first: the object's first splat in the concatenated data (exact in float to 2^24).
+    effects: its deferred colour effects' first table texel, count, and whether they
+    read the rest centres' texture (effect_rows.py)."""
     m = np.asarray(local_to_camera, np.float64)
     eye, forward = camera_in_object(m)
     eye_hi, eye_lo = split_float(eye)
@@ -260,6 +271,7 @@ def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: 
     rows[5:8] = np.asarray(color_matrix, np.float32).reshape(3, 4)
     rows[8, :3] = forward if ortho else 0.0
     rows[8, 3] = first
+    rows[9, :3] = effects
     return rows
 
 

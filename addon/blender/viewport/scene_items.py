@@ -17,6 +17,7 @@ import bpy
 from ..evaluate import items as evaluate
 from ..data import native
 from ..data.pointcloud import is_splat_object
+from .effect_rows import on_gpu
 from .viewport_renderer import ItemDisplay
 
 
@@ -196,7 +197,8 @@ class SceneItems:
                 self.signatures[name] = settings_signature(original)
                 # the evaluator's own key: with the arrays' identities it decides what
                 # the renderer re-uploads (an effect that only fades uploads one texture)
-                item = evaluate.item_for(obj_eval, depsgraph)
+                # colour effects the preprocess pass can apply are left to it
+                item = evaluate.item_for(obj_eval, depsgraph, defer=on_gpu)
             else:
                 item = replace(cached[1], world=world)
             self.items[name] = (version, item)

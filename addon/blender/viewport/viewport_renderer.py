@@ -17,6 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
+from .effect_rows import effect_rows
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
                                    visible_order)
@@ -113,6 +114,12 @@ def _positions_key(item: RenderItem):
     return _data_key(item, ("positions",)) if item.positions_key is None else item.positions_key
 
 
+def _reads_rest(item: RenderItem) -> bool:
+    """Whether a deferred effect of the item measures centres other than its drawn ones."""
+    return (item.rest_positions is not None and item.rest_positions is not item.splats.positions
+            and any(d.at_rest for d in item.deferred))
+
+
 def _data_key(item: RenderItem, fields: tuple):
     """The key to file what is built from these SplatSet fields under: the base data's
     version while they are all its own arrays (an effect playing changes item.key every
@@ -186,6 +193,28 @@ class ViewportRenderer:
         self.stats.uploads += 1
         return time.perf_counter() - start
 
+    def _upload_rest(self, items) -> float:
+        """The effects' input centres, for deferred effects measured there while others
+        move the splats (the base's positions: uploaded once, not per frame)."""
+        reads = [_reads_rest(i) for i in items]
+        if not any(reads):
+            self.gpu.drop("rest")
+            self.state.tokens.pop("rest", None)
+            return 0.0
+        start = time.perf_counter()
+        got = [self.packs.get("rest", i, (i.rest_positions if r else None,),
+                              lambda i=i, r=r: packing.pack_xyz(i.rest_positions if r else None, i.splats.count),
+                              key=i.base_key) for i, r in zip(items, reads)]
+        token = tuple(ident for ident, _ in got)
+        if self.state.tokens.get("rest") == token:
+            return 0.0
+        counts = [i.splats.count for i in items]
+        flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, 4)
+        self.gpu.set_texture("rest", flat)
+        self.state.tokens["rest"] = token
+        self.stats.uploads += 1
+        return time.perf_counter() - start
+
     def _valid(self, item, degree) -> np.ndarray:
         """packing.drawable, a field at a time: each part is kept while its field is (a
         colour effect recomputes the SH DC test alone), and an unchanged result is the
@@ -218,6 +247,7 @@ class ViewportRenderer:
         seconds = time.perf_counter() - start
         seconds += self._upload_pos(items, valid)
         seconds += self._upload_shape(items)
+        seconds += self._upload_rest(items)
         seconds += self._texture("sh", items, values, ("sh_rest",),
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
@@ -349,13 +379,17 @@ class ViewportRenderer:
         return const
 
     def _update_objects(self, items, displays, l2c, ortho) -> None:
-        rows, first = [], 0
+        rows, effects, first = [], [], 0
+        texel = len(items) * packing.OBJECT_TEXELS  # the effects' rows follow the objects'
         for item, d, m in zip(items, displays, l2c):
             degree = max(0, min(item.effective_sh_degree, d.max_sh_degree))
             rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale, degree,
-                                            MODES[d.mode], d.sh_only, item.color_matrix, ortho, first))
+                                            MODES[d.mode], d.sh_only, item.color_matrix, ortho, first,
+                                            (texel, len(item.deferred), _reads_rest(item))))
+            effects.append(effect_rows(item.deferred))
+            texel += effects[-1].shape[0]
             first += item.splats.count
-        table = np.concatenate(rows)
+        table = np.concatenate(rows + effects)
         if self.state.objects_token is not None and np.array_equal(self.state.objects_token, table):
             return  # still camera, same transforms: nothing to upload
         start = time.perf_counter()

@@ -72,7 +72,8 @@ def apply(splats, p: Displace, time: float = 0.0, rest=None):
 
 KIND = EffectKind(
     "DISPLACE", 1, "Displace", "Seeded smooth noise displacement, continuous in time", "MOD_NOISE",
-    Displace, apply, moves_splats=True, depends_on_time=True, fields=(
+    Displace, apply, writes=frozenset({"positions"}),
+    moves_splats=True, depends_on_time=True, fields=(
         Field("amplitude", "FLOAT", "Amplitude", 0.1,
               options={"soft_min": 0.0, "soft_max": 2.0, "unit": "LENGTH"}),
         FREQUENCY,

@@ -99,7 +99,8 @@ def apply(splats, p: Explode, time: float = 0.0, rest=None):
 
 KIND = EffectKind(
     "EXPLODE", 2, "Explode/Scatter", "Splats fly away from a centre or along a direction",
-    "MOD_EXPLODE", Explode, apply, moves_splats=True, depends_on_time=True, fields=(
+    "MOD_EXPLODE", Explode, apply, writes=frozenset({"positions", "rotations", "opacities"}),
+    moves_splats=True, depends_on_time=True, fields=(
         Field("explode_mode", "ENUM", "Mode", param="mode", items=(
             ("CENTER", "From Centre", "Away from the gizmo's origin"),
             ("DIRECTION", "Direction", "Along the gizmo's Z"))),

@@ -117,7 +117,8 @@ def _colour(name, label, default):
 
 KIND = EffectKind(
     "GRADE", 4, "Colour Grade", "A colour gradient by height, distance or noise", "COLOR",
-    Grade, apply, moves_splats=False, depends_on_time=False, fields=(
+    Grade, apply, writes=frozenset({"sh_dc"}),
+    moves_splats=False, depends_on_time=False, fields=(
         Field("grade_field", "ENUM", "Field", param="field", items=(
             ("HEIGHT", "Height", "Along the gizmo's Z"), ("DISTANCE", "Distance", "From the gizmo"),
             ("NOISE", "Noise", "Noise value 0..1"))),

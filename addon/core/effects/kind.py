@@ -10,10 +10,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from ..splats import ARRAYS
+
 # Field types: FLOAT, INT, BOOL, ENUM (items: (id, label, description) rows), COLOR (RGB,
 # read as a tuple), SPLATS (another splat object: the Blender layer hands its splats
 # mapped into this object's space and paired with its splats, as (SplatSet, Pairing)).
 FIELD_TYPES = ("FLOAT", "INT", "BOOL", "ENUM", "COLOR", "SPLATS")
+ALL_FIELDS = frozenset(ARRAYS)
 
 
 @dataclass(frozen=True)
@@ -44,7 +47,9 @@ class EffectKind:
 
     moves_splats: the kernel may change positions (the viewport re-packs and re-sorts).
     depends_on_time: its output changes with time itself, not only through keyframes
-    (the cache key of an evaluated frame then holds the time)."""
+    (the cache key of an evaluated frame then holds the time).
+    writes: the SplatSet fields its output may hold new values in (an upper bound); a kind
+    writing only positions and rotations reads only those too (deferral.py relies on it)."""
     id: str                     # the Effect item's `type`, held by files and presets
     number: int                 # its enum value in saved files: unique, never reused
     label: str
@@ -57,6 +62,7 @@ class EffectKind:
     fields: tuple = ()
     derive: Callable | None = None  # (field values by name, fps) -> further params
     opaque: tuple = ()          # params identified by their source's key, not by value
+    writes: frozenset = ALL_FIELDS
 
     @property
     def target_field(self) -> str | None:

@@ -112,7 +112,8 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
 
 KIND = EffectKind(
     "REVEAL", 0, "Reveal/Dissolve", "A plane, sphere or noise threshold sweeps the splats in or out",
-    "MOD_BUILD", Reveal, apply, moves_splats=False, depends_on_time=False, fields=(
+    "MOD_BUILD", Reveal, apply, writes=frozenset({"opacities", "scales", "sh_dc"}),
+    moves_splats=False, depends_on_time=False, fields=(
         Field("reveal_shape", "ENUM", "Shape", param="shape", items=(
             ("PLANE", "Plane", "Height along the gizmo's Z"),
             ("SPHERE", "Sphere", "Distance from the gizmo"), ("NOISE", "Noise", "Noise value 0..1"))),

@@ -89,7 +89,8 @@ def apply(splats, p: Twist, time: float = 0.0, rest=None):
 
 KIND = EffectKind(
     "TWIST", 3, "Twist/Swirl", "Rotate splats about an axis by height or radius", "MOD_SIMPLEDEFORM",
-    Twist, apply, moves_splats=True, depends_on_time=False, fields=(
+    Twist, apply, writes=frozenset({"positions", "rotations"}),
+    moves_splats=True, depends_on_time=False, fields=(
         Field("twist", "FLOAT", "Twist", 0.5, "Angle per unit of height along the gizmo's Z",
               options={"subtype": "ANGLE"}),
         Field("swirl", "FLOAT", "Swirl", 0.0, "Angle at the axis, falling off with distance",

@@ -305,7 +305,7 @@ def test_hidden_objects_and_collections_are_not_drawn(bpy_empty):
     evaluated = []
     real = evaluate.item_for
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(evaluate, "item_for", lambda o, d=None: evaluated.append(o.name) or real(o, d))
+        patch.setattr(evaluate, "item_for", lambda o, d=None, defer=None: evaluated.append(o.name) or real(o, d, defer))
         assert names() == ["a"]
         cache.invalidate()
         evaluated.clear()

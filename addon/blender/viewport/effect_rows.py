@@ -1,0 +1,93 @@
+"""Colour effects the viewport applies in its preprocess pass: which ones it can, and the
+table rows the shader reads them from (no bpy, no gpu).
+
+Scrubbing a reveal or a grade on the CPU rewrites and re-uploads the opacity, scale and
+colour of every splat each frame; here a frame uploads a few texels of parameters instead,
+and shaders/viewport_effects.glsl applies the numpy kernels' arithmetic (core/effects/
+reveal.py, grade.py) to the base splats. Which effects may leave the stack is
+core/effects/deferral.py's rule; final renders and Blender's own engines never defer.
+
+Rows, EFFECT_TEXELS texels of RGBA32F per effect, after the objects' rows in the same
+table texture:
+    0      kind (1 reveal, 2 grade), field (0 height, 1 distance), at rest, amount
+    1..3   rows 0..2 of gizmo-local from object (field = these applied to the centre)
+reveal:
+    4      progress, -1 / width, invert, amount * shrink
+    5      glow colour rgb, 4 amount glow_strength / C0 (0: no glow)
+    6      hard edge (width <= 0)
+grade:
+    4      low, 1 / (high - low) (1e12 when equal), mode (0 mix, 1 multiply, 2 add), stops
+    5..7   stops by position: position, rgb
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...core.effects.common import inverse, is_identity
+from ...core.effects.grade import MODES, Grade
+from ...core.effects.reveal import Reveal
+from ...core.sh import C0
+
+EFFECT_TEXELS = 8
+MAX_STOPS = 3
+REVEAL, GRADE = 1, 2
+_REVEAL_FIELDS = {"PLANE": 0, "SPHERE": 1}
+_GRADE_FIELDS = {"HEIGHT": 0, "DISTANCE": 1}
+
+
+def _finite(*values) -> bool:
+    return bool(np.isfinite(np.asarray(values, np.float64)).all())
+
+
+def on_gpu(params) -> bool:
+    """Whether the preprocess pass can apply this effect: reveal and grade by height or
+    distance. Amount and shrink within [0, 1] (the panel's ranges) keep the base scales
+    an upper bound of the drawn ones, which the sort's culling radius relies on."""
+    if not (getattr(params, "active", False) and 0.0 < params.amount <= 1.0):
+        return False
+    if not _finite(np.asarray(params.frame, np.float64)):
+        return False
+    if type(params) is Reveal:
+        return (params.shape in _REVEAL_FIELDS and 0.0 <= params.shrink <= 1.0
+                and _finite(params.progress, params.width, params.glow_strength, *params.glow_color))
+    if type(params) is Grade:
+        return (params.field in _GRADE_FIELDS and params.mode in MODES
+                and 1 <= len(params.stops) <= MAX_STOPS and _finite(params.low, params.high)
+                and all(_finite(x, *rgb) for x, rgb in params.stops))
+    return False
+
+
+def effect_rows(deferred: tuple) -> np.ndarray:
+    """(len(deferred) * EFFECT_TEXELS, 4) float32: the deferred effects' rows, in order."""
+    rows = np.zeros((len(deferred) * EFFECT_TEXELS, 4), np.float32)
+    for k, d in enumerate(deferred):
+        part = rows[k * EFFECT_TEXELS:(k + 1) * EFFECT_TEXELS]
+        p = d.params
+        local = np.eye(4) if is_identity(p.frame) else inverse(p.frame)
+        part[1:4] = local[:3]
+        if type(p) is Reveal:
+            part[0] = (REVEAL, _REVEAL_FIELDS[p.shape], d.at_rest, p.amount)
+            _reveal(part, p)
+        elif type(p) is Grade:
+            part[0] = (GRADE, _GRADE_FIELDS[p.field], d.at_rest, p.amount / C0)
+            _grade(part, p)
+        else:
+            raise TypeError(f"the viewport cannot apply {type(p).__name__} itself")
+    return rows
+
+
+def _reveal(part: np.ndarray, p: Reveal) -> None:
+    # each constant as the kernel rounds it: the float64 expression, then float32
+    hard = p.width <= 0.0
+    part[4] = (p.progress, 0.0 if hard else -1.0 / p.width, p.invert, p.amount * p.shrink)
+    gain = 4.0 * p.amount * p.glow_strength / C0 if p.glow_strength > 0.0 else 0.0
+    part[5] = (*p.glow_color[:3], gain)
+    part[6, 0] = hard
+
+
+def _grade(part: np.ndarray, p: Grade) -> None:
+    scale = 1.0 / (p.high - p.low) if p.high != p.low else 1e12
+    stops = sorted(p.stops, key=lambda s: s[0])  # stable, as grade.gradient's
+    part[4] = (p.low, scale, MODES.index(p.mode), len(stops))
+    for k, (x, rgb) in enumerate(stops):
+        part[5 + k] = (x, *rgb[:3])

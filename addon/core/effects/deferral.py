@@ -1,0 +1,60 @@
+"""Which effects of a stack a renderer may apply itself, after the CPU's part.
+
+The viewport can apply colour effects (those changing only opacities, scales and SH DC)
+in its preprocess pass, so that scrubbing them re-uploads nothing per splat. Moving an
+effect out of the stack to its end is exact when nothing after it reads what it writes
+and its field is measured at the same centres:
+- an effect after it writes positions and rotations only (such kinds read only those,
+  kind.EffectKind.writes), or is itself deferred, in order;
+- its field's centres are the stack's input (no mover before it, `at_rest`) or the final
+  ones (no mover after it). Noise fields are never deferred here: `on_gpu` says no.
+
+`split_stack` decides; `apply_deferred` is the readable CPU meaning of the result, which
+tests pin to evaluate_stack bit for bit.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Callable
+
+from ..splats import SplatSet
+from . import registry
+from .stack import apply_effect
+
+GEOMETRY = frozenset({"positions", "rotations"})
+COLOUR = frozenset({"opacities", "scales", "sh_dc"})
+
+
+@dataclass(frozen=True)
+class Deferred:
+    params: object      # a kernel's params (a colour kind's)
+    at_rest: bool       # its field is measured at the stack's input centres, not the final ones
+
+
+def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, tuple]:
+    """(the effects to evaluate on the CPU, in order; the Deferred ones, in order).
+    on_gpu(params): whether the renderer can apply this effect itself."""
+    movers = [registry.of(p).moves_splats for p in effects]
+    deferred, kept_after = [], []
+    cut = len(effects)
+    for i in range(len(effects) - 1, -1, -1):
+        p, kind = effects[i], registry.of(effects[i])
+        if kind.writes <= GEOMETRY:
+            kept_after.append(p)
+        elif kind.writes <= COLOUR and on_gpu(p) and not (any(movers[:i]) and any(movers[i + 1:])):
+            deferred.append(Deferred(p, at_rest=not any(movers[:i])))
+        else:
+            break
+        cut = i
+    return list(effects[:cut]) + kept_after[::-1], tuple(deferred[::-1])
+
+
+def apply_deferred(splats: SplatSet, rest, deferred: tuple, time: float) -> SplatSet:
+    """The deferred effects on the CPU's result: what a renderer applying them must draw.
+    rest: the stack's input centres."""
+    rest_or_none = rest if rest.shape[0] == splats.count else None  # as evaluate_stack
+    for d in deferred:
+        field_at = rest if d.at_rest else splats.positions
+        out = apply_effect(replace(splats, positions=field_at), d.params, time, rest_or_none)
+        splats = replace(out, positions=splats.positions)
+    return splats

@@ -1,0 +1,76 @@
+// Viewport (Blender gpu module): the colour effects the preprocess pass applies itself
+// (Reveal and Grade by height or distance, core/effects/deferral.py), each the numpy
+// kernel's arithmetic in the same order (core/effects/reveal.py, grade.py), on the base
+// splats' opacity, |scale| and SH DC. Rows: addon/blender/viewport/effect_rows.py;
+// pinned to the kernels by tests/blender/viewport/test_viewport_effects.py.
+// Needs object_tex declared (GPUShaderCreateInfo) and SL_SH_C0 from splat_math.glsl.
+
+const int EFFECT_TEXELS = 8;
+
+vec4 effect_texel(int row, int k)
+{
+    return texelFetch(object_tex, ivec2(row + k, 0), 0);
+}
+
+// common.field_values: local = rows of gizmo-from-object applied term by term
+float effect_field(int row, int field, vec3 at)
+{
+    vec4 r2 = effect_texel(row, 3);
+    float z = ((at.x * r2.x + at.y * r2.y) + at.z * r2.z) + r2.w;
+    if (field == 0) return z;
+    vec4 r0 = effect_texel(row, 1), r1 = effect_texel(row, 2);
+    float x = ((at.x * r0.x + at.y * r0.y) + at.z * r0.z) + r0.w;
+    float y = ((at.x * r1.x + at.y * r1.y) + at.z * r1.z) + r1.w;
+    return sqrt((x * x + y * y) + z * z);
+}
+
+void reveal_effect(int row, float amount, float f, inout float opacity, inout vec3 scale,
+                   inout vec3 dc)
+{
+    vec4 edge = effect_texel(row, 4), glow = effect_texel(row, 5);
+    float s = effect_texel(row, 6).x > 0.5 ? float(f < edge.x)
+                                           : clamp((f - edge.x) * edge.y + 0.5, 0.0, 1.0);
+    if (glow.w > 0.0) dc += (s * (1.0 - s) * glow.w) * glow.rgb;
+    float visible = (s * -2.0 + 3.0) * (s * s);
+    float hidden = edge.z > 0.5 ? visible : 1.0 - visible;
+    opacity *= hidden * -amount + 1.0;
+    if (edge.w > 0.0) scale *= hidden * -edge.w + 1.0;
+}
+
+// grade.gradient: piecewise linear between stops sorted by position, a step where two meet
+vec3 grade_gradient(int row, int stops, float x)
+{
+    vec4 first = effect_texel(row, 5);
+    vec3 colour = first.yzw;
+    for (int k = 1; k < stops; k++) {
+        vec4 a = effect_texel(row, 4 + k), b = effect_texel(row, 5 + k);
+        float w = b.x > a.x ? clamp((x - a.x) * (1.0 / (b.x - a.x)), 0.0, 1.0) : float(x >= a.x);
+        colour += w * (b.yzw - a.yzw);
+    }
+    return colour;
+}
+
+void grade_effect(int row, float gain, float f, inout vec3 dc)
+{
+    vec4 range = effect_texel(row, 4);
+    float x = clamp((f - range.x) * range.y, 0.0, 1.0);
+    vec3 g = grade_gradient(row, int(range.w), x);
+    int mode = int(range.z);
+    vec3 base = dc * SL_SH_C0 + 0.5;
+    vec3 delta = mode == 2 ? g : (mode == 0 ? g - base : base * (g - 1.0));
+    dc += delta * gain;
+}
+
+// Apply `count` effects whose rows start at texel `first`, in stack order. `at` and
+// `rest`: the splat's final and input centres (equal when nothing moved it).
+void apply_effects(int first, int count, vec3 at, vec3 rest, inout float opacity,
+                   inout vec3 scale, inout vec3 dc)
+{
+    for (int e = 0; e < count; e++) {
+        int row = first + e * EFFECT_TEXELS;
+        vec4 head = effect_texel(row, 0);
+        float f = effect_field(row, int(head.y), head.z > 0.5 ? rest : at);
+        if (int(head.x) == 1) reveal_effect(row, head.w, f, opacity, scale, dc);
+        else grade_effect(row, head.w, f, dc);
+    }
+}

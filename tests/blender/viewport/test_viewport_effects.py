@@ -1,0 +1,232 @@
+"""The colour effects the viewport applies in its preprocess pass (viewport_effects.glsl)
+pinned to the numpy kernels, record by record, across each effect's parameters.
+
+One draw holds two copies of a real capture (guitar.ply, with its importer's axes, every
+third splat) under a turned gizmo: the first with the stack evaluated on the CPU, the
+second with its colour effects deferred (core/effects/deferral.py) and the base splats
+uploaded. Their preprocess records (opacity, conic, radius, colour) must agree within
+what the two paths' half-float rounding allows: the CPU path rounds the scales and SH DC
+to halves after the effect, the deferred one before it.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from addon.core.effects import Displace, evaluate_stack
+from addon.core.effects.deferral import split_stack
+from addon.core.formats import read
+from addon.core.scene import RenderItem
+from addon.core.render_constants import ALPHA_MIN
+from addon.core.sh import C0
+from testing.effect_cases import grades, reveals
+from testing.gl_scenes import framing_camera, world_for
+from testing.viewport_scene import draw_offscreen
+
+HALF_STEP = 2.0 ** -11  # a half's rounding, relative, to nearest
+DISPLACE = Displace(amplitude=0.08, frequency=2.0)
+
+
+@pytest.fixture(scope="module")
+def gpu_ready(_bpy_registered):
+    from testing.headless import ensure_gpu
+
+    ensure_gpu()
+
+
+@pytest.fixture(scope="module")
+def capture(testdata):
+    full = read(testdata / "guitar.ply")
+    keep = np.arange(0, full.count, 3)
+    splats = replace(full, **{f: getattr(full, f)[keep] for f in
+                              ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")})
+    world = world_for(splats)
+    return splats, world, framing_camera(RenderItem(splats, world), 160, 120)
+
+
+def _texels(texture, channels: int) -> np.ndarray:
+    return np.array(texture.read().to_list(), np.float32).reshape(-1, channels)
+
+
+def records(items, camera) -> tuple[np.ndarray, dict]:
+    """(drawn splat indices, {record name: (drawn, 4)}) of one viewport draw."""
+    _, renderer = draw_offscreen(items, camera)
+    gpu_ = renderer.gpu
+    n = gpu_.order_count
+    order = _texels(gpu_.textures["order"], 1)[:n, 0].astype(np.int64)
+    recs = {name: _texels(t, 4)[:n] for name, t in gpu_.records.items()}
+    renderer.close()
+    return order, recs
+
+
+def halves(a):
+    return np.asarray(a, np.float32).astype(np.float16).astype(np.float32)
+
+
+def cases():
+    """Each reveal and grade by height or distance the viewport takes, alone, before a
+    displace (measured at the rest centres: the rest texture) and after one. The
+    test sets thresholds and ranges within the capture's own field values (_fitted)."""
+    from addon.blender.viewport.effect_rows import on_gpu
+
+    effects = [p for p in itertools.chain(reveals(), grades()) if on_gpu(p)]
+    places = itertools.cycle(("alone", "before", "after"))
+    for p, place in zip(effects, places):
+        yield {"alone": [p], "before": [p, DISPLACE], "after": [DISPLACE, p]}[place]
+
+
+def _fitted(p, splats):
+    """p with its threshold or range moved into the capture's field values (the cases'
+    -0.5..2 as fractions of its middle 80%), so that each case draws both sides."""
+    from addon.core.effects.common import field_values
+
+    kind = {"PLANE": "HEIGHT", "SPHERE": "DISTANCE"}.get(getattr(p, "shape", None), getattr(p, "field", None))
+    f = field_values(splats.positions, p.frame, kind)
+    lo, hi = np.quantile(f, (0.1, 0.9))
+
+    def at(x):  # the cases' values, 0..1 across the middle of the capture
+        return float(lo + (hi - lo) * x)
+
+    if hasattr(p, "shape"):
+        return replace(p, progress=at(0.5 + 0.5 * p.progress), width=p.width * float(hi - lo))
+    return replace(p, low=at(p.low), high=at(p.high))
+
+
+def _ids(stack):
+    p = next(q for q in stack if q is not DISPLACE)
+    return f"{type(p).__name__}-{getattr(p, 'shape', getattr(p, 'field', ''))}-{len(stack)}"
+
+
+CASES = list(cases())
+
+
+def test_the_cases_meet_every_branch():
+    from addon.blender.viewport.effect_rows import on_gpu
+
+    deferred = [split_stack(s, on_gpu)[1] for s in CASES]
+    assert all(len(d) == 1 for d in deferred)
+    assert {d[0].at_rest for d in deferred} == {True, False}
+    reveal = [d[0].params for d in deferred if hasattr(d[0].params, "shape")]
+    grade = [d[0].params for d in deferred if hasattr(d[0].params, "mode")]
+    for what in (lambda p: p.shape, lambda p: p.invert, lambda p: p.width > 0,
+                 lambda p: p.shrink > 0, lambda p: p.glow_strength > 0, lambda p: p.amount < 1):
+        assert len({what(p) for p in reveal}) == 2
+    assert {(p.field, p.mode, len(p.stops)) for p in grade} >= {
+        (f, m, k) for f in ("HEIGHT", "DISTANCE") for m in ("MIX", "MULTIPLY", "ADD") for k in (2, 3)}
+    assert any(p.low == p.high for p in grade)
+
+
+@pytest.mark.parametrize("stack", CASES, ids=[_ids(s) for s in CASES])
+def test_deferred_effects_draw_the_kernels_records(gpu_ready, capture, stack):
+    from addon.blender.viewport.effect_rows import on_gpu
+
+    splats, world, camera = capture
+    stack = [p if p is DISPLACE else _fitted(p, splats) for p in stack]
+    time = 0.9
+    on_cpu, deferred = split_stack(stack, on_gpu)
+    assert len(deferred) == 1
+    cpu = evaluate_stack(splats, stack, time).splats
+    part = evaluate_stack(splats, on_cpu, time).splats
+    n = splats.count
+    items = [RenderItem(cpu, world, key=("cpu",)),
+             RenderItem(part, world, key=("gpu",), deferred=deferred, rest_positions=splats.positions)]
+    order, rec = records(items, camera)
+    want, got = _by_splat(order, rec, n)
+    assert len(want) > 0.3 * n  # the capture is in view
+    assert set(want) <= set(got)  # the base scales bound the culling radius
+    both = np.array(sorted(want), np.int64)
+    w = np.stack([want[i] for i in both])
+    g = np.stack([got[i] for i in both])
+    _check(w, g, both, splats, cpu, part, deferred[0].params)
+
+
+def _by_splat(order, rec, n):
+    """{splat: its 12 record values} of the CPU copy and of the deferred one."""
+    flat = np.concatenate([rec["rec_pos"], rec["rec_conic"], rec["rec_color"]], axis=1)
+    want = {int(i): flat[k] for k, i in enumerate(order) if i < n}
+    got = {int(i) - n: flat[k] for k, i in enumerate(order) if i >= n}
+    return want, got
+
+
+def _check(w, g, index, splats, cpu, part, params):
+    """Field by field, the bound that the two roundings allow: the halves (scales, DC),
+    and the field's own float rounding (the GPU may fuse its multiply-adds), carried
+    through the effect's slope."""
+    culled_w, culled_g = ~w.any(1), ~g.any(1)
+    slack = _slack(splats, cpu, part, params, index)
+    edge = slack["edge"] | (np.abs(cpu.opacities[index] - ALPHA_MIN) <= slack["opacity"] + 1e-6)
+    flips = culled_w != culled_g
+    assert not (flips & ~edge).any(), f"{int((flips & ~edge).sum())} splats culled on one side only"
+    ok = ~culled_w & ~culled_g & ~edge
+    assert ok.sum() > 0.1 * index.size
+    w, g = w[ok], g[ok]
+    slack = {k: np.broadcast_to(v, ok.shape)[ok] for k, v in slack.items()}
+    assert (np.abs(g[:, 7] - w[:, 7]) <= slack["opacity"] + 2.0 ** -22 * w[:, 7]).all(), "opacity"
+    np.testing.assert_allclose(g[:, 0:3], w[:, 0:3], rtol=0, atol=1e-4, err_msg="centre, depth")
+    # scales: halves(s * k) against halves(s) * k, each within a half's rounding, and k's slack
+    scale_error = 2.0 * HALF_STEP + 2e-7 + slack["scale"]
+    conic_tol = 4.0 * scale_error[:, None] * np.abs(w[:, 4:7]).max(1, keepdims=True) + 1e-7
+    assert (np.abs(g[:, 4:7] - w[:, 4:7]) <= conic_tol).all(), "conic"
+    assert (np.abs(g[:, 3] - w[:, 3]) <= scale_error * np.abs(w[:, 3]) + 1e-3).all(), "radius"
+    dc_cpu = np.abs(cpu.sh_dc[index][ok])
+    dc_base = np.abs(part.sh_dc[index][ok])
+    colour_tol = C0 * HALF_STEP * (dc_cpu + 2.0 * dc_base) + slack["colour"][:, None] + 1e-5
+    assert (np.abs(g[:, 8:11] - w[:, 8:11]) <= colour_tol).all(), "colour"
+
+
+def _slack(splats, cpu, part, params, index) -> dict:
+    """Per splat, how far float rounding of the field may move each record, and `edge`:
+    where it may put a hard edge's splat on the other side."""
+    from addon.core.effects.common import inverse
+
+    rows = np.abs(inverse(params.frame)[:3])
+    df = np.zeros(index.size)
+    for centres in (splats.positions, part.positions):
+        c = np.abs(np.asarray(centres[index], np.float64))
+        terms = c @ rows[:, :3].T + rows[:, 3]  # |x r0| + |y r1| + |z r2| + |r3| per axis
+        df = np.maximum(df, 8.0 * 2.0 ** -24 * np.linalg.norm(terms, axis=1))
+    out = {"edge": np.zeros(index.size, bool), "opacity": np.zeros(index.size),
+           "scale": np.zeros(index.size), "colour": np.zeros(index.size)}
+    if hasattr(params, "shape"):  # reveal: s moves by df / width, visibility by 1.5 ds
+        if params.width <= 0.0:
+            out["edge"] = _field_near(splats, part, params, index, df)
+            return out
+        ds = df / params.width
+        out["opacity"] = np.asarray(splats.opacities[index], np.float64) * params.amount * 1.5 * ds
+        # relative to the scale factor k itself (the kernel's, read off its scales)
+        k = np.abs(cpu.scales[index, 0] / splats.scales[index, 0]) if params.shrink > 0.0 else 1.0
+        out["scale"] = params.amount * params.shrink * 1.5 * ds / np.maximum(k, 1e-6)
+        out["colour"] = 4.0 * params.amount * params.glow_strength * ds * max(map(abs, params.glow_color))
+        return out
+    # grade: x moves by df / (high - low), the gradient by its steepest slope
+    span = params.high - params.low
+    stops = sorted(params.stops, key=lambda s: s[0])
+    slopes = [max(abs(np.subtract(b[1], a[1]))) / (b[0] - a[0]) for a, b in zip(stops, stops[1:])
+              if b[0] > a[0]]
+    steps = [b[0] for a, b in zip(stops, stops[1:]) if b[0] == a[0]]
+    dx = df / abs(span) if span else 0.0  # low == high: a step at low, flat elsewhere
+    base = np.abs(C0 * splats.sh_dc[index] + 0.5).max(1)  # multiply scales the gradient's error
+    out["colour"] = params.amount * max(slopes, default=0.0) * dx * np.maximum(1.0, base)
+    kinks = [params.low + at * span for at in steps + [0.0, 1.0]]  # a step, the clip's ends
+    for f in _fields(splats, part, params.frame, params.field, index):
+        for at in kinks:  # where f may cross one, the slope bound does not hold
+            out["edge"] |= np.abs(f - at) <= 2.0 * df
+    return out
+
+
+def _fields(splats, part, frame, kind, index):
+    """The field at the rest centres and at the drawn ones (a deferred effect reads one)."""
+    from addon.core.effects.common import field_values
+
+    return [field_values(c[index], frame, kind).astype(np.float64) for c in (splats.positions, part.positions)]
+
+
+def _field_near(splats, part, params, index, df) -> np.ndarray:
+    kind = "HEIGHT" if params.shape == "PLANE" else "DISTANCE"
+    near = np.zeros(index.size, bool)
+    for f in _fields(splats, part, params.frame, kind, index):
+        near |= np.abs(f - params.progress) <= 2.0 * df
+    return near

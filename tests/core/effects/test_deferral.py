@@ -1,0 +1,111 @@
+"""core/effects/deferral.py: which colour effects a renderer may apply after the CPU's part
+of a stack, and that doing so is the stack itself, bit for bit, on a real capture with
+its importer's axes and a turned gizmo."""
+from __future__ import annotations
+
+from dataclasses import fields, replace
+
+import numpy as np
+import pytest
+
+from addon.core.effects import (KINDS, Displace, Explode, Grade, Reveal, Twist, apply_effect,
+                                evaluate_stack)
+from addon.core.effects.deferral import Deferred, apply_deferred, split_stack
+from addon.core.formats import read
+from testing.effect_cases import gizmo, grades, reveals
+
+FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
+
+
+def not_noise(p) -> bool:
+    """A renderer that applies colour effects by height or distance, as the viewport does."""
+    return "NOISE" not in (getattr(p, "shape", None), getattr(p, "field", None))
+
+
+@pytest.fixture(scope="module")
+def capture(testdata):
+    splats = read(testdata / "guitar.ply")
+    assert splats.axes is not None  # the capture's own axes: not an identity scene
+    for f in FIELDS:
+        getattr(splats, f).flags.writeable = False
+    return splats
+
+
+REVEAL = Reveal(shape="PLANE", progress=0.2, width=0.3, glow_strength=1.0, frame=gizmo())
+GRADE = Grade(field="HEIGHT", low=-1.0, high=1.5, frame=gizmo())
+DISPLACE = Displace(amplitude=0.1, frequency=2.0)
+TWIST = Twist(twist=0.8, frame=gizmo())
+NOISY = Reveal(shape="NOISE", progress=0.5, width=0.2, frequency=3.0)
+EXPLODE = Explode(fade=0.5)
+
+# (stack, the CPU's part, the deferred ones as (params, at_rest))
+SPLITS = (
+    ((REVEAL, DISPLACE, GRADE), (DISPLACE,), ((REVEAL, True), (GRADE, False))),
+    ((GRADE, DISPLACE, REVEAL), (DISPLACE,), ((GRADE, True), (REVEAL, False))),
+    ((GRADE, TWIST, DISPLACE), (TWIST, DISPLACE), ((GRADE, True),)),
+    ((REVEAL, GRADE), (), ((REVEAL, True), (GRADE, True))),
+    # measured between two movers: neither the input's centres nor the final ones
+    ((DISPLACE, REVEAL, TWIST), (DISPLACE, REVEAL, TWIST), ()),
+    # noise stays on the CPU, and so does everything before it
+    ((NOISY, GRADE), (NOISY,), ((GRADE, True),)),
+    ((GRADE, NOISY), (GRADE, NOISY), ()),
+    # explode writes opacities: nothing before it may be moved past it
+    ((REVEAL, EXPLODE), (REVEAL, EXPLODE), ()),
+    ((EXPLODE, GRADE), (EXPLODE,), ((GRADE, False),)),
+)
+
+
+@pytest.mark.parametrize("stack, cpu, deferred", SPLITS)
+def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred):
+    got_cpu, got_deferred = split_stack(list(stack), not_noise)
+    assert [id(p) for p in got_cpu] == [id(p) for p in cpu]
+    assert got_deferred == tuple(Deferred(p, at_rest) for p, at_rest in deferred)
+    want = evaluate_stack(capture, list(stack), 1.3).splats
+    part = evaluate_stack(capture, got_cpu, 1.3).splats
+    got = apply_deferred(part, capture.positions, got_deferred, 1.3)
+    for f in FIELDS:
+        a, b = getattr(got, f), getattr(want, f)
+        np.testing.assert_array_equal(a.view(np.uint32), b.view(np.uint32), err_msg=f)
+    if deferred and not any(type(p) in (Reveal, Grade) for p in cpu):
+        for f in ("scales", "sh_dc"):  # the colour the renderer re-uploads was left alone
+            assert getattr(part, f) is getattr(capture, f), f
+
+
+def test_nothing_is_deferred_without_a_taker(capture):
+    stack = [REVEAL, DISPLACE, GRADE]
+    assert split_stack(stack, lambda p: False) == (stack, ())
+
+
+def _kinds_params():
+    yield from reveals()
+    yield from grades()
+    for amplitude in (0.0, 0.1):
+        yield Displace(amplitude=amplitude, frame=gizmo())
+    for fade, spin in ((0.0, 0.0), (0.5, 2.0)):
+        yield Explode(fade=fade, spin=spin, frame=gizmo())
+    yield Twist(twist=0.8, frame=gizmo())
+
+
+def test_each_kind_writes_only_what_it_declares(capture):
+    """EffectKind.writes is an upper bound: every other field comes back as the very
+    input array (split_stack moves effects past kinds by it)."""
+    for p in _kinds_params():
+        kind = next(k for k in KINDS.values() if type(p) is k.params)
+        out = apply_effect(capture, p, 1.1, capture.positions)
+        for f in set(FIELDS) - kind.writes:
+            assert getattr(out, f) is getattr(capture, f), (kind.id, f)
+
+
+def test_geometry_kinds_read_no_colour(capture):
+    """split_stack lets a colour effect pass a kind writing only positions and rotations,
+    on the promise that such a kind reads nothing else: new colour in, same centres out."""
+    recoloured = replace(capture, opacities=capture.opacities * np.float32(0.5),
+                         scales=capture.scales * np.float32(2.0), sh_dc=-capture.sh_dc)
+    geometry = [k for k in KINDS.values() if k.writes <= {"positions", "rotations"}]
+    assert {k.id for k in geometry} >= {"DISPLACE", "TWIST"}
+    for p in (DISPLACE, TWIST):
+        a = apply_effect(capture, p, 0.7, capture.positions)
+        b = apply_effect(recoloured, p, 0.7, recoloured.positions)
+        for f in ("positions", "rotations"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+    assert all(f.name != "writes" for f in fields(REVEAL))  # a kind's, not a params' field

@@ -238,7 +238,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
 
     def view_update(self, context, depsgraph):
         # Rendered viewport shading: read the splats when the depsgraph changes, not per redraw.
-        self._view_items = collect_items(depsgraph)
+        self._view_items = _viewport_items(depsgraph)
 
     def view_draw(self, context, depsgraph):
         """Rendered viewport shading: the world (or nothing) behind the viewport's splat drawing.
@@ -260,12 +260,19 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             framebuffer.clear(color=(*(float(c) for c in background), 1.0))
         items = getattr(self, "_view_items", None)
         if items is None:
-            items = self._view_items = collect_items(depsgraph)
+            items = self._view_items = _viewport_items(depsgraph)
         region, rv3d = context.region, context.region_data
         if items and region is not None and rv3d is not None:
             gpu.state.depth_test_set("NONE")
             viewport.draw_items(items, rv3d.view_matrix, rv3d.window_matrix,
                                 (region.width, region.height))
+
+
+def _viewport_items(depsgraph):
+    """Items for the viewport's drawing path, which applies colour effects itself."""
+    from ..viewport.effect_rows import on_gpu
+
+    return collect_items(depsgraph, defer=on_gpu)
 
 
 def _write_view(result, view, rect, depth):

@@ -230,3 +230,46 @@ def _field_near(splats, part, params, index, df) -> np.ndarray:
     for f in _fields(splats, part, params.frame, kind, index):
         near |= np.abs(f - params.progress) <= 2.0 * df
     return near
+
+
+def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, testdata):
+    """Through Blender: a capture imported by the import operator, a reveal, a displace and
+    a grade added by the effect operator. The viewport's evaluation defers the reveal and
+    the grade, so a scrubbed frame uploads the displaced centres, the order and the table
+    but no colour; it draws what the whole stack evaluated on the CPU draws."""
+    from addon.blender.evaluate.items import collect_items
+    from addon.blender.viewport import ViewportRenderer, packing
+    from addon.blender.viewport.effect_rows import on_gpu
+    from addon.core.effects import Grade, Reveal
+    from testing.viewport_scene import psnr
+
+    bpy = bpy_empty
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "guitar.ply")) == {"FINISHED"}
+    obj = bpy.context.active_object
+    with bpy.context.temp_override(object=obj):
+        for kind in ("REVEAL", "DISPLACE", "GRADE"):
+            assert bpy.ops.splatline.effect_add(type=kind) == {"FINISHED"}
+    reveal, displace, grade = obj.splatline.effects
+    reveal.glow_strength, grade.range_low, grade.range_high = 1.0, -1.0, 1.0
+    for frame, progress in ((1, -1.0), (20, 1.0)):
+        reveal.progress = progress
+        reveal.keyframe_insert("progress", frame=frame)
+
+    def at(frame, defer):
+        bpy.context.scene.frame_set(frame)
+        return collect_items(bpy.context.evaluated_depsgraph_get(), defer)
+
+    first = at(8, on_gpu)
+    assert [type(d.params) for d in first[0].deferred] == [Reveal, Grade]
+    camera = framing_camera(first[0], 160, 120)
+    renderer = ViewportRenderer()
+    draw_offscreen(first, camera, renderer=renderer)
+    assert "rest" in renderer.gpu.textures  # the reveal measures the centres displace moves
+    later = at(12, on_gpu)
+    image, _ = draw_offscreen(later, camera, renderer=renderer)
+    n = packing.padded(later[0].splats.count)
+    assert 16 * n <= renderer.stats.frame_bytes < (16 + 4) * n + 4096  # pos, order, table
+    whole = at(12, None)
+    assert not whole[0].deferred
+    assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
+    assert psnr(image, draw_offscreen(first, camera)[0]) < 40.0  # the frames differ

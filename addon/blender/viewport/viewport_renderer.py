@@ -18,6 +18,7 @@ import numpy as np
 from ...core.scene import RenderItem
 from . import packing
 from .effect_rows import effect_rows
+from .pack_cache import PackCache, data_key, positions_key_of, reads_rest
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
                                    visible_order)
@@ -80,61 +81,12 @@ class _State:
     objects_token: object = None
 
 
-class _Packs:
-    """Packed arrays per object and texture, cached by the identity of their sources.
-
-    A hit needs the same item key and the very same source arrays (`is`): effects may
-    change opacities under an unchanged key, and the draw handler hands back the same
-    arrays while an object's data is unchanged. Entries hold their sources, so an id
-    can never be recycled while cached. Only the current frame's entries are kept.
-    """
-
-    def __init__(self):
-        self.entries: dict = {}
-        self.used: dict = {}
-        self.built = 0  # arrays packed so far
-
-    def get(self, name: str, item: RenderItem, sources: tuple, build, extra=(), key=None):
-        """key: the item key to file the entry under (default item.key)."""
-        ident = (name, item.key if key is None else key, tuple(id(a) for a in sources), extra)
-        hit = self.entries.get(ident)
-        if hit is None or any(x is not y for x, y in zip(hit[0], sources)):
-            hit = (sources, build())
-            self.built += 1
-        self.used[ident] = hit
-        return ident, hit[1]
-
-    def end_frame(self) -> int:
-        """Drop entries not used this frame; returns the bytes kept."""
-        self.entries, self.used = self.used, {}
-        return sum(v[1].nbytes for v in self.entries.values())
-
-
-def _positions_key(item: RenderItem):
-    return _data_key(item, ("positions",)) if item.positions_key is None else item.positions_key
-
-
-def _reads_rest(item: RenderItem) -> bool:
-    """Whether a deferred effect of the item measures centres other than its drawn ones."""
-    return (item.rest_positions is not None and item.rest_positions is not item.splats.positions
-            and any(d.at_rest for d in item.deferred))
-
-
-def _data_key(item: RenderItem, fields: tuple):
-    """The key to file what is built from these SplatSet fields under: the base data's
-    version while they are all its own arrays (an effect playing changes item.key every
-    frame but leaves them alone), else the item's key."""
-    if item.base_key is not None and item.base_fields.issuperset(fields):
-        return item.base_key
-    return item.key
-
-
 class ViewportRenderer:
     def __init__(self, worker: bool = False, on_sorted=None):
         self.gpu = None  # created on the first draw, inside a GPU context
         self.stats = Stats()
         self.state = _State()
-        self.packs = _Packs()
+        self.packs = PackCache()
         self.pos, self.shape = PosStage(), ShapeStage()
         self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
         self.worker = SortWorker(on_sorted) if worker else None
@@ -145,7 +97,7 @@ class ViewportRenderer:
             self.worker = None
         self.gpu = None
         self.state = _State()
-        self.packs = _Packs()
+        self.packs = PackCache()
         self.pos, self.shape = PosStage(), ShapeStage()
         self.last_valid, self.next_valid = {}, {}
 
@@ -155,7 +107,7 @@ class ViewportRenderer:
         spent. per_splat: values per splat of the stream."""
         start = time.perf_counter()
         got = [self.packs.get(name, i, tuple(getattr(i.splats, f) for f in fields), lambda i=i: build(i), extra,
-                              key=_data_key(i, fields)) for i in items]
+                              key=data_key(i, fields)) for i in items]
         token = tuple(ident for ident, _ in got)
         if self.state.tokens.get(name) == token:
             return 0.0
@@ -170,7 +122,7 @@ class ViewportRenderer:
         """The shape texture, its rotation, scale and colour parts rewritten apart."""
         start = time.perf_counter()
         fields = ("rotations", "scales", "sh_dc")
-        if not self.shape.update([tuple((_data_key(i, (f,)), getattr(i.splats, f)) for f in fields)
+        if not self.shape.update([tuple((data_key(i, (f,)), getattr(i.splats, f)) for f in fields)
                                   for i in items]):
             return 0.0
         self.gpu.set_texture("shape", self.shape.flat)
@@ -181,7 +133,7 @@ class ViewportRenderer:
         """The pos texture: kept when its sources are, its alpha channel alone rewritten
         when only opacities (or drawability) changed; returns seconds spent."""
         start = time.perf_counter()
-        change = self.pos.update([(_positions_key(i), i.splats.positions, _data_key(i, ("opacities",)),
+        change = self.pos.update([(positions_key_of(i), i.splats.positions, data_key(i, ("opacities",)),
                                    i.splats.opacities, v) for i, v in zip(items, valid)])
         if change == ALPHA and "pos" in self.gpu.textures:
             self.gpu.set_alpha("pos", self.pos.alpha)
@@ -196,7 +148,7 @@ class ViewportRenderer:
     def _upload_rest(self, items) -> float:
         """The effects' input centres, for deferred effects measured there while others
         move the splats (the base's positions: uploaded once, not per frame)."""
-        reads = [_reads_rest(i) for i in items]
+        reads = [reads_rest(i) for i in items]
         if not any(reads):
             self.gpu.drop("rest")
             self.state.tokens.pop("rest", None)
@@ -223,11 +175,11 @@ class ViewportRenderer:
         tests = (("rotations", packing.rotation_rows), ("scales", packing.finite_rows),
                  ("sh_dc", packing.finite_rows))
         parts = [self.packs.get(f"ok_{f}", item, (getattr(s, f),), lambda f=f, t=t: t(getattr(s, f)),
-                                key=_data_key(item, (f,)))[1] for f, t in tests]
+                                key=data_key(item, (f,)))[1] for f, t in tests]
         parts.append(self.packs.get("ok_sh_rest", item, (s.sh_rest,), lambda: packing.rest_rows(s, degree),
-                                    extra=(degree,), key=_data_key(item, ("sh_rest",)))[1])
+                                    extra=(degree,), key=data_key(item, ("sh_rest",)))[1])
         # the parts are this renderer's own arrays, never written: their identity is their value
-        slot = _data_key(item, ())
+        slot = data_key(item, ())
         valid = self.packs.get("valid", item, tuple(parts), lambda: np.logical_and.reduce(parts), key=slot)[1]
         last = self.last_valid.get(slot)
         if last is not None and last is not valid and np.array_equal(last, valid):
@@ -258,11 +210,11 @@ class ViewportRenderer:
         # handler's mode), so an effect moving or resizing splats costs the drawing thread
         # neither the centres' layout nor the radii.
         soa = [self.packs.get("centres", i, (i.splats.positions,),
-                              lambda i=i: Deferred(centres_layout, i.splats.positions), key=_positions_key(i))
+                              lambda i=i: Deferred(centres_layout, i.splats.positions), key=positions_key_of(i))
                for i in items]
         radii = [self.packs.get("radius", i, (i.splats.scales,),
                                 lambda i=i: Deferred(bounding_radius, i.splats.scales),
-                                key=_data_key(i, ("scales",)))
+                                key=data_key(i, ("scales",)))
                  for i in items]
         token = tuple(ident for ident, _ in soa)
         self.state.layout = tuple((i.key[0] if i.key else None, i.splats.count) for i in items)
@@ -385,7 +337,7 @@ class ViewportRenderer:
             degree = max(0, min(item.effective_sh_degree, d.max_sh_degree))
             rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale, degree,
                                             MODES[d.mode], d.sh_only, item.color_matrix, ortho, first,
-                                            (texel, len(item.deferred), _reads_rest(item))))
+                                            (texel, len(item.deferred), reads_rest(item))))
             effects.append(effect_rows(item.deferred))
             texel += effects[-1].shape[0]
             first += item.splats.count

@@ -1,0 +1,54 @@
+"""What the viewport builds from an item's arrays, cached by their identity, and the keys
+it is filed under (no bpy, no gpu)."""
+from __future__ import annotations
+
+from ...core.scene import RenderItem
+
+
+class PackCache:
+    """Packed arrays per object and texture, cached by the identity of their sources.
+
+    A hit needs the same item key and the very same source arrays (`is`): effects may
+    change opacities under an unchanged key, and the draw handler hands back the same
+    arrays while an object's data is unchanged. Entries hold their sources, so an id
+    can never be recycled while cached. Only the current frame's entries are kept.
+    """
+
+    def __init__(self):
+        self.entries: dict = {}
+        self.used: dict = {}
+        self.built = 0  # arrays packed so far
+
+    def get(self, name: str, item: RenderItem, sources: tuple, build, extra=(), key=None):
+        """key: the item key to file the entry under (default item.key)."""
+        ident = (name, item.key if key is None else key, tuple(id(a) for a in sources), extra)
+        hit = self.entries.get(ident)
+        if hit is None or any(x is not y for x, y in zip(hit[0], sources)):
+            hit = (sources, build())
+            self.built += 1
+        self.used[ident] = hit
+        return ident, hit[1]
+
+    def end_frame(self) -> int:
+        """Drop entries not used this frame; returns the bytes kept."""
+        self.entries, self.used = self.used, {}
+        return sum(v[1].nbytes for v in self.entries.values())
+
+
+def positions_key_of(item: RenderItem):
+    return data_key(item, ("positions",)) if item.positions_key is None else item.positions_key
+
+
+def reads_rest(item: RenderItem) -> bool:
+    """Whether a deferred effect of the item measures centres other than its drawn ones."""
+    return (item.rest_positions is not None and item.rest_positions is not item.splats.positions
+            and any(d.at_rest for d in item.deferred))
+
+
+def data_key(item: RenderItem, fields: tuple):
+    """The key to file what is built from these SplatSet fields under: the base data's
+    version while they are all its own arrays (an effect playing changes item.key every
+    frame but leaves them alone), else the item's key."""
+    if item.base_key is not None and item.base_fields.issuperset(fields):
+        return item.base_key
+    return item.key

@@ -202,9 +202,36 @@ def smallest_three(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def shape_rotation(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The shape stream's rotation part: (N, 3) halves and (N,) the dropped index."""
-    three, largest = smallest_three(q)
-    return halves_fast(three), largest
+    """The shape stream's rotation part: (N, 3) halves and (N,) int8, the dropped index.
+    halves_fast(smallest_three(q)) a block at a time on the effects' threads, on contiguous
+    float64 columns (argmax, take_along_axis and norm over rows of four cost 4x more);
+    pinned to it bit for bit by tests/blender/viewport/test_viewport_speed_paths.py."""
+    n = q.shape[0]
+    three, largest = np.empty((n, 3), np.float32), np.empty(n, np.int8)
+
+    def block(rows):
+        c = np.array(q[rows], np.float64).T.copy()  # four contiguous columns w, x, y, z
+        norm = c[0] * c[0]
+        for k in (1, 2, 3):
+            norm += c[k] * c[k]
+        with np.errstate(all="ignore"):
+            c /= np.sqrt(norm, out=norm)
+        np.nan_to_num(c, copy=False)
+        size = np.abs(c)
+        big = np.zeros(c.shape[1], np.int8)
+        best = size[0]
+        for k in (1, 2, 3):  # strictly greater: the first of equals wins, as argmax
+            big[size[k] > best] = k
+            best = np.maximum(best, size[k])
+        c *= np.where(np.choose(big, c) < 0.0, -1.0, 1.0)
+        part = np.empty((c.shape[1], 3), np.float32)
+        for j in range(3):  # _OTHERS[big][j]: component j, or j + 1 at or after the dropped one
+            part[:, j] = np.where(big <= j, c[j + 1], c[j])
+        _round_to_halves(part)
+        three[rows], largest[rows] = part, big
+
+    for_blocks(n, block)
+    return three, largest
 
 
 def shape_scales(scales: np.ndarray, largest: np.ndarray) -> np.ndarray:

@@ -100,7 +100,7 @@ class ShapeStage:
             rotation, size, colour = (o is None or not _same(o, p) for o, p in zip(old, part))
             if rotation:
                 three, largest = packing.shape_rotation(part[0][1])
-                self.largest[k] = largest.astype(np.int8)
+                self.largest[k] = largest
                 _columns(view, 0, three)
             if rotation or size:
                 packing.halves_into(view[:, 3:6], part[1][1], self.largest[k])

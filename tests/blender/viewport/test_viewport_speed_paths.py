@@ -251,3 +251,24 @@ def test_a_colour_or_size_effect_re_uploads_the_shape_alone(testdata, gpu_ready,
     shape = r.gpu.textures["shape"]
     assert r.stats.frame_bytes == shape.width * shape.height * 8, "the shape texture alone (RGBA16F)"
     assert psnr(img, draw_offscreen([changed, items[1]], cam)[0]) == float("inf")
+
+
+def test_shape_rotation_is_the_readable_smallest_three_bit_for_bit(testdata):
+    """The shape stream's rotation part, a block at a time on two threads, against
+    halves(smallest_three(q)): a real capture's quaternions, and random ones over several
+    blocks with zero, NaN, tied and negative-largest rows."""
+    from addon.core.effects.common import BLOCK
+
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(5 * BLOCK + 17, 4)).astype(np.float32)
+    q[:3] = 0.0
+    q[3, 1] = np.nan
+    q[4] = (0.5, -0.5, 0.5, -0.5)   # four equal magnitudes: the first is dropped
+    q[5] = (-1.0, 0.0, 0.0, 0.0)
+    q[6] = (0.0, 0.0, 0.0, -2.0)
+    q[7] = (0.3, 0.3, -0.3, np.inf)
+    for rotations in (read(testdata / "guitar.ply").rotations, q):
+        three, largest = packing.smallest_three(rotations)
+        got_three, got_largest = packing.shape_rotation(rotations)
+        np.testing.assert_array_equal(got_largest, largest)
+        np.testing.assert_array_equal(got_three.view(np.uint32), packing.halves_fast(three).view(np.uint32))

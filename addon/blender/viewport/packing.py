@@ -265,7 +265,7 @@ def pack_sh(splats: SplatSet, degree: int, values: int) -> np.ndarray:
     k = sh_coeff_count(max(0, min(degree, splats.sh_degree)))
     if k and n:
         view = flat.reshape(-1)[:n * values].reshape(n, values)
-        view[:, :3 * k] = halves_fast(splats.sh_rest[:, :k].reshape(n, 3 * k))
+        halves_into(view[:, :3 * k], splats.sh_rest[:, :k].reshape(n, 3 * k))
     return flat
 
 

@@ -11,7 +11,8 @@
 // Per-object table (10 texels an object): columns of cam_from_local with splat scale,
 // opacity scale, SH degree; eye hi + mode; eye lo + sh_only; the 3x4 colour matrix;
 // orthographic view direction + the object's first splat index; the object's colour
-// effects (first texel, count, whether they read rest_tex), whose rows follow the objects'.
+// effects (first texel, count, whether they read rest_tex), whose rows follow the objects',
+// and a deferred morph's amount (0: none; the target's data in the morph_* textures).
 // Everything is camera-relative: t = cam_from_local * (p - eye), eye split hi + lo.
 
 const int OBJECT_TEXELS = 10;
@@ -47,25 +48,79 @@ vec4 quat_from_three(vec3 v, int largest)
     return vec4(v, l);
 }
 
-vec3 sh_colour(int splat, vec3 dir, int degree, vec3 dc, bool sh_only)
+// The higher SH coefficients of one splat in `tex` (a stream of halves, sizes.y a splat).
+void sh_rest_of(sampler2D tex, int splat, int coeffs, out vec3 rest[15])
+{
+    for (int k = 0; k < 15; k++) rest[k] = vec3(0.0);
+    int base = splat * sizes.y, off = base % 4;
+    int used = (off + 3 * coeffs + 3) / 4;
+    vec4 tx[12];
+    for (int j = 0; j < 12; j++) {
+        tx[j] = j < used ? fetch(tex, base / 4 + j) : vec4(0.0);
+    }
+    for (int k = 0; k < coeffs; k++) {
+        int c = off + 3 * k;
+        rest[k] = vec3(tx[c / 4][c % 4], tx[(c + 1) / 4][(c + 1) % 4], tx[(c + 2) / 4][(c + 2) % 4]);
+    }
+}
+
+vec3 sh_colour(int splat, vec3 dir, int degree, vec3 dc, bool sh_only, float morph)
 {
     vec3 rest[15];
     for (int k = 0; k < 15; k++) rest[k] = vec3(0.0);
     int coeffs = (degree + 1) * (degree + 1) - 1;
     if (coeffs > 0 && sizes.y > 0) {
-        int base = splat * sizes.y, off = base % 4;
-        int used = (off + 3 * coeffs + 3) / 4;
-        vec4 tx[12];
-        for (int j = 0; j < 12; j++) {
-            tx[j] = j < used ? fetch(sh_tex, base / 4 + j) : vec4(0.0);
-        }
-        for (int k = 0; k < coeffs; k++) {
-            int c = off + 3 * k;
-            rest[k] = vec3(tx[c / 4][c % 4], tx[(c + 1) / 4][(c + 1) % 4], tx[(c + 2) / 4][(c + 2) % 4]);
+        sh_rest_of(sh_tex, splat, coeffs, rest);
+        if (morph > 0.0) {  // morph.blend's lerp, a + (b - a) t, on each coefficient
+            vec3 other[15];
+            sh_rest_of(morph_sh_tex, splat, coeffs, other);
+            for (int k = 0; k < coeffs; k++) rest[k] = rest[k] + (other[k] - rest[k]) * morph;
         }
     }
     // "show SH only": the higher bands over grey, without the DC term
     return sl_sh_color(dir, degree, sh_only ? vec3(0.0) : dc, rest);
+}
+
+// The shape stream's values of one splat: quaternion (w, x, y, z), |scale|, SH DC.
+void shape_of(sampler2D tex, int splat, out vec4 q, out vec3 scale, out vec3 dc)
+{
+    int base = splat * 9, off = base % 4;
+    vec4 tx[3];
+    for (int j = 0; j < 3; j++) tx[j] = fetch(tex, base / 4 + j);
+    float v[9];
+    for (int k = 0; k < 9; k++) v[k] = tx[(off + k) / 4][(off + k) % 4];
+    vec3 s = vec3(v[3], v[4], v[5]);
+    q = quat_from_three(vec3(v[0], v[1], v[2]), int(s.x < 0.0) + 2 * int(s.y < 0.0));
+    scale = abs(s);
+    dc = vec3(v[6], v[7], v[8]);
+}
+
+// morph.slerp: shortest arc, nlerp where sin(theta) < 1e-5, normalised
+vec4 morph_slerp(vec4 a, vec4 b, float t)
+{
+    float d = dot(a, b);
+    b *= d < 0.0 ? -1.0 : 1.0;
+    float theta = acos(min(abs(d), 1.0));
+    float s = sin(theta);
+    bool near = s < 1e-5;
+    float w0 = near ? 1.0 - t : sin(theta * (1.0 - t)) / s;
+    float w1 = near ? t : sin(theta * t) / s;
+    vec4 q = a * w0 + b * w1;
+    return q / max(length(q), 1e-12);
+}
+
+// A deferred morph (core/effects/deferral.py): this splat blended with the target's splat
+// of the same index, as morph.blend does; the centre is already blended (pos_tex).
+void morph_splat(int splat, float t, inout float opacity, inout vec3 scale, inout vec4 q,
+                 inout vec3 dc)
+{
+    vec4 other_q;
+    vec3 other_scale, other_dc;
+    shape_of(morph_shape_tex, splat, other_q, other_scale, other_dc);
+    opacity = opacity + (fetch(morph_pos_tex, splat).w - opacity) * t;
+    scale = scale + (other_scale - scale) * t;
+    dc = dc + (other_dc - dc) * t;
+    q = morph_slerp(q, other_q, t);
 }
 
 vec3 srgb_to_linear(vec3 c)
@@ -95,17 +150,15 @@ void main()
 
     vec4 p = fetch(pos_tex, splat);
     if (!sl_is_finite3(p.xyz) || !sl_is_finite(p.w)) return;  // NaN: packing found it undrawable
-    int base = splat * 9, off = base % 4;
-    vec4 tx[3];
-    for (int j = 0; j < 3; j++) tx[j] = fetch(shape_tex, base / 4 + j);
-    float v[9];
-    for (int k = 0; k < 9; k++) v[k] = tx[(off + k) / 4][(off + k) % 4];
-    vec3 s = vec3(v[3], v[4], v[5]);
-    vec4 q = quat_from_three(vec3(v[0], v[1], v[2]), int(s.x < 0.0) + 2 * int(s.y < 0.0));
-    vec3 dc = vec3(v[6], v[7], v[8]);
-    vec3 scale = abs(s);
+    vec4 q;
+    vec3 scale, dc;
+    shape_of(shape_tex, splat, q, scale, dc);
     float opacity = p.w;
     vec4 effects = object_texel(obj, 9);
+    if (effects.w > 0.0) {
+        morph_splat(splat, effects.w, opacity, scale, q, dc);
+        if (!sl_is_finite(opacity)) return;  // NaN: packing found the target's splat undrawable
+    }
     if (effects.y > 0.0) {
         vec3 rest = effects.z > 0.5 ? fetch(rest_tex, splat).xyz : p.xyz;
         apply_effects(int(effects.x), int(effects.y), p.xyz, rest, opacity, scale, dc);
@@ -132,7 +185,7 @@ void main()
     vec2 centre = sl_project_point(t, focal_centre, ortho);
     if (!sl_is_finite(radius) || !sl_is_finite(centre.x) || !sl_is_finite(centre.y)) return;
     vec3 dir = ortho ? ortho_dir.xyz : rel / length(rel);
-    vec3 rgb = sh_colour(splat, dir, degree, dc, sh_only);
+    vec3 rgb = sh_colour(splat, dir, degree, dc, sh_only, effects.w);
     rgb = sl_grade_color(rgb, mat3(c0.x, c1.x, c2.x, c0.y, c1.y, c2.y, c0.z, c1.z, c2.z),
                          vec3(c0.w, c1.w, c2.w));
     if (flags.w != 0) rgb = srgb_to_linear(rgb);

@@ -19,9 +19,9 @@ import numpy as np
 import bpy
 
 from ...core import look as core_look
-from ...core.effects import evaluate_stack
+from ...core.effects import StackResult, evaluate_stack
 from ...core.effects.common import stop_helper
-from ...core.effects.deferral import split_stack
+from ...core.effects.deferral import drawn_splats, split_stack
 from ...core.effects.recycle import BUFFERS
 from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import ARRAYS
@@ -189,6 +189,9 @@ def item_for(obj_eval, depsgraph=None, defer=None) -> RenderItem:
                                   base_splats)
     on_cpu, deferred = split_stack(effects.params, defer) if defer else (effects.params, ())
     result = evaluate_stack(splats, on_cpu, time)
+    if deferred:
+        drawn = drawn_splats(result.splats, deferred)
+        result = StackResult(drawn, drawn.positions is not splats.positions)
     key = (name, base_key)
     if result.splats is not base or deferred:
         key = (name, base_key, (box, sphere), effects.signature)

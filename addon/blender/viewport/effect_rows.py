@@ -1,5 +1,6 @@
-"""Colour effects the viewport applies in its preprocess pass: which ones it can, and the
-table rows the shader reads them from (no bpy, no gpu).
+"""Effects the viewport applies in its preprocess pass: which ones it can, and the table
+rows the shader reads the colour effects from (no bpy, no gpu). A morph has no row: the
+object's row holds its amount, and the target's own textures hold the rest.
 
 Scrubbing a reveal or a grade on the CPU rewrites and re-uploads the opacity, scale and
 colour of every splat each frame; here a frame uploads a few texels of parameters instead,
@@ -25,6 +26,7 @@ import numpy as np
 
 from ...core.effects.common import inverse, is_identity
 from ...core.effects.grade import MODES, Grade
+from ...core.effects.morph import Morph
 from ...core.effects.reveal import Reveal
 from ...core.sh import C0
 
@@ -54,11 +56,22 @@ def on_gpu(params) -> bool:
         return (params.field in _GRADE_FIELDS and params.mode in MODES
                 and 1 <= len(params.stops) <= MAX_STOPS and _finite(params.low, params.high)
                 and all(_finite(x, *rgb) for x, rgb in params.stops))
+    if type(params) is Morph:  # pairs in order: splat i blends with the target's splat i
+        pairing = params.pairing
+        return (params.amount < 1.0 and params.target is not None and pairing is not None
+                and pairing.in_order and len(pairing.source) == params.target.count)
     return False
 
 
+def morph_of(deferred: tuple):
+    """The deferred morph's params (the first deferred effect, split_stack's rule), or None."""
+    return deferred[0].params if deferred and type(deferred[0].params) is Morph else None
+
+
 def effect_rows(deferred: tuple) -> np.ndarray:
-    """(len(deferred) * EFFECT_TEXELS, 4) float32: the deferred effects' rows, in order."""
+    """(EFFECT_TEXELS rows per colour effect, 4) float32: the deferred colour effects'
+    rows, in order (a morph's amount is on the object's row)."""
+    deferred = [d for d in deferred if type(d.params) is not Morph]
     rows = np.zeros((len(deferred) * EFFECT_TEXELS, 4), np.float32)
     for k, d in enumerate(deferred):
         part = rows[k * EFFECT_TEXELS:(k + 1) * EFFECT_TEXELS]

@@ -35,6 +35,9 @@ WIDTH = 4096          # texels per row of every data texture
 MAX_HEIGHT = 16384    # the smallest GL_MAX_TEXTURE_SIZE Blender supports
 SHAPE_VALUES = 9
 OBJECT_TEXELS = 10    # per-object table row: see object_rows
+# a deferred morph's target, in the layouts of pos, shape and sh (the shader reads those
+# in their place where no object morphs)
+MORPH = {"morph_pos": "pos", "morph_shape": "shape", "morph_sh": "sh"}
 HALF_MAX = 65504.0
 HALF_TINY = 2.0 ** -24  # the smallest positive half: stands for a zero scale, keeping its sign
 _OTHERS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])
@@ -282,11 +285,11 @@ def concatenate(parts: list[np.ndarray], counts: list[int], per_splat: int) -> n
 
 def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: float,
                 sh_degree: int, mode: int, sh_only: bool, color_matrix: np.ndarray,
-                ortho: bool, first: int, effects: tuple = (0, 0, False)) -> np.ndarray:
+                ortho: bool, first: int, effects: tuple = (0, 0, False, 0.0)) -> np.ndarray:
     """(OBJECT_TEXELS, 4) float32 for one object (layout in viewport_preprocess_frag.glsl).
     first: the object's first splat in the concatenated data (exact in float to 2^24).
-    effects: its deferred colour effects' first table texel, count, and whether they
-    read the rest centres' texture (effect_rows.py)."""
+    effects: its deferred colour effects' first table texel, count, whether they read
+    the rest centres' texture (effect_rows.py), and a deferred morph's amount (0: none)."""
     m = np.asarray(local_to_camera, np.float64)
     eye, forward = camera_in_object(m)
     eye_hi, eye_lo = split_float(eye)
@@ -298,7 +301,7 @@ def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: 
     rows[5:8] = np.asarray(color_matrix, np.float32).reshape(3, 4)
     rows[8, :3] = forward if ortho else 0.0
     rows[8, 3] = first
-    rows[9, :3] = effects
+    rows[9] = effects
     return rows
 
 

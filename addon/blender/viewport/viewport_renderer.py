@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .effect_rows import effect_rows
+from .effect_rows import effect_rows, morph_of
 from .pack_cache import PackCache, data_key, positions_key_of, reads_rest
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
@@ -79,6 +79,19 @@ class _State:
     sorted_layout: tuple = ()    # the layout the uploaded order was made for
     pending_token: object = None
     objects_token: object = None
+
+
+def _degree(item: RenderItem, display: ItemDisplay) -> int:
+    """The SH degree drawn: the look's and the display's cap, and the data's (with a
+    deferred morph, the higher of the two sets', as morph.blend pads the lower)."""
+    morph = morph_of(item.deferred)
+    data = item.splats.sh_degree if morph is None else max(item.splats.sh_degree, morph.target.sh_degree)
+    return max(0, min(item.sh_degree, display.max_sh_degree, data))
+
+
+def _morph_sources(params) -> tuple:
+    t = None if params is None else params.target
+    return (None,) if t is None else (t.positions, t.opacities, t.rotations, t.scales, t.sh_dc, t.sh_rest)
 
 
 class ViewportRenderer:
@@ -145,6 +158,35 @@ class ViewportRenderer:
         self.stats.uploads += 1
         return time.perf_counter() - start
 
+    def _upload_morph(self, items, degrees, values) -> float:
+        """A deferred morph's target data, in the pos, shape and sh layouts (uploaded once:
+        the target's arrays are the same every frame); zeros for objects without one."""
+        targets = [morph_of(i.deferred) for i in items]
+        if all(t is None for t in targets):
+            for name in packing.MORPH:
+                self.gpu.drop(name)
+                self.state.tokens.pop(name, None)
+            return 0.0
+        start = time.perf_counter()
+        counts = [i.splats.count for i in items]
+        builds = {
+            "morph_pos": (4, lambda t, n, g: packing.pack_pos(t.target, packing.drawable(t.target, g))),
+            "morph_shape": (packing.SHAPE_VALUES, lambda t, n, g: packing.pack_shape(t.target)),
+            "morph_sh": (values, lambda t, n, g: packing.pack_sh(t.target, g, values))}
+        for name, (per_splat, build) in builds.items():
+            got = [self.packs.get(name, i, _morph_sources(t), extra=(g, values), key=i.base_key,
+                                  build=lambda t=t, n=n, g=g, b=build, k=per_splat:
+                                  packing.stream(n * k) if t is None else b(t, n, g))
+                   for i, t, n, g in zip(items, targets, counts, degrees)]
+            token = tuple(ident for ident, _ in got)
+            if self.state.tokens.get(name) == token:
+                continue
+            flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
+            self.gpu.set_texture(name, flat)
+            self.state.tokens[name] = token
+            self.stats.uploads += 1
+        return time.perf_counter() - start
+
     def _upload_rest(self, items) -> float:
         """The effects' input centres, for deferred effects measured there while others
         move the splats (the base's positions: uploaded once, not per frame)."""
@@ -189,8 +231,7 @@ class ViewportRenderer:
 
     def _update_data(self, items, displays) -> list:
         """Upload changed data textures; returns each item's positions (3, N) for sorting."""
-        degrees = [max(0, min(i.sh_degree, d.max_sh_degree, i.splats.sh_degree))
-                   for i, d in zip(items, displays)]
+        degrees = [_degree(i, d) for i, d in zip(items, displays)]
         values = max(packing.sh_values(g) for g in degrees)
         by_item = dict(zip(map(id, items), degrees))
         start = time.perf_counter()
@@ -203,6 +244,7 @@ class ViewportRenderer:
         seconds += self._texture("sh", items, values, ("sh_rest",),
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
+        seconds += self._upload_morph(items, degrees, values)
         self.gpu.sh_values = values
         # Filed under positions_key: a colour, opacity or scale effect changes item.key
         # every frame but not the centres, and must not cost a re-sort.
@@ -334,10 +376,12 @@ class ViewportRenderer:
         rows, effects, first = [], [], 0
         texel = len(items) * packing.OBJECT_TEXELS  # the effects' rows follow the objects'
         for item, d, m in zip(items, displays, l2c):
-            degree = max(0, min(item.effective_sh_degree, d.max_sh_degree))
-            rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale, degree,
-                                            MODES[d.mode], d.sh_only, item.color_matrix, ortho, first,
-                                            (texel, len(item.deferred), reads_rest(item))))
+            morph = morph_of(item.deferred)
+            colour = len(item.deferred) - (morph is not None)
+            rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale,
+                                            _degree(item, d), MODES[d.mode], d.sh_only, item.color_matrix,
+                                            ortho, first, (texel, colour, reads_rest(item),
+                                                           0.0 if morph is None else morph.amount)))
             effects.append(effect_rows(item.deferred))
             texel += effects[-1].shape[0]
             first += item.splats.count

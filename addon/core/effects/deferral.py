@@ -1,13 +1,16 @@
 """Which effects of a stack a renderer may apply itself, after the CPU's part.
 
 The viewport can apply colour effects (those changing only opacities, scales and SH DC)
-in its preprocess pass, so that scrubbing them re-uploads nothing per splat. Moving an
-effect out of the stack to its end is exact when nothing after it reads what it writes
-and its field is measured at the same centres:
+and a morph in its preprocess pass, so that scrubbing them re-uploads nothing per splat.
+Moving a colour effect out of the stack to its end is exact when nothing after it reads
+what it writes and its field is measured at the same centres:
 - an effect after it writes positions and rotations only (such kinds read only those,
   kind.EffectKind.writes), or is itself deferred, in order;
 - its field's centres are the stack's input (no mover before it, `at_rest`) or the final
-  ones (no mover after it). Noise fields are never deferred here: `on_gpu` says no.
+  ones (no mover after it). Whether a field kind can be deferred is `on_gpu`'s to say.
+A morph is deferred when everything after it is: the renderer blends the CPU part's
+splats with the target itself, except the centres, which the CPU blends (`drawn_splats`:
+the renderer sorts by them), exactly as the kernel does.
 
 `split_stack` decides; `apply_deferred` is the readable CPU meaning of the result, which
 tests pin to evaluate_stack bit for bit.
@@ -19,6 +22,7 @@ from typing import Callable
 
 from ..splats import SplatSet
 from . import registry
+from .morph import Morph, morph_positions
 from .stack import apply_effect
 
 GEOMETRY = frozenset({"positions", "rotations"})
@@ -39,6 +43,11 @@ def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, 
     cut = len(effects)
     for i in range(len(effects) - 1, -1, -1):
         p, kind = effects[i], registry.of(effects[i])
+        if type(p) is Morph:
+            if not kept_after and on_gpu(p):  # its output is read by deferred effects only
+                deferred.append(Deferred(p, at_rest=False))
+                cut = i
+            break  # what comes before it is the morph's source
         if kind.writes <= GEOMETRY:
             kept_after.append(p)
         elif kind.writes <= COLOUR and on_gpu(p) and not (any(movers[:i]) and any(movers[i + 1:])):
@@ -49,11 +58,24 @@ def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, 
     return list(effects[:cut]) + kept_after[::-1], tuple(deferred[::-1])
 
 
+def drawn_splats(splats: SplatSet, deferred: tuple) -> SplatSet:
+    """What the renderer is handed for the CPU part's splats: with a deferred morph (the
+    first deferred effect, paired in order), the centres blended as the kernel blends
+    them; every other field the CPU part's own."""
+    if deferred and type(deferred[0].params) is Morph:
+        p = deferred[0].params
+        return replace(splats, positions=morph_positions(splats.positions, p.target.positions, p.amount))
+    return splats
+
+
 def apply_deferred(splats: SplatSet, rest, deferred: tuple, time: float) -> SplatSet:
     """The deferred effects on the CPU's result: what a renderer applying them must draw.
     rest: the stack's input centres."""
     rest_or_none = rest if rest.shape[0] == splats.count else None  # as evaluate_stack
     for d in deferred:
+        if type(d.params) is Morph:  # first, on the CPU part's own splats
+            splats = apply_effect(splats, d.params, time, rest_or_none)
+            continue
         field_at = rest if d.at_rest else splats.positions
         out = apply_effect(replace(splats, positions=field_at), d.params, time, rest_or_none)
         splats = replace(out, positions=splats.positions)

@@ -94,6 +94,12 @@ def _lerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
     return out
 
 
+def morph_positions(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
+    """blend's centres for pairs in order: what a renderer that blends the rest itself
+    sorts and draws by."""
+    return _lerp(a, b, t)
+
+
 @dataclass
 class SlerpSetup:
     """What slerp computes from the two rotation sets alone, not from t."""

@@ -379,6 +379,7 @@ def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
     a splat object without effects still reuses its data on a transform-only move."""
     from addon.blender import viewport
     from addon.blender.evaluate.items import item_for
+    from addon.blender.viewport.effect_rows import on_gpu
     from testing.animation_scene import add_object, grid_splats
 
     bpy = bpy_empty
@@ -399,9 +400,9 @@ def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
         items, _ = cache.collect(bpy.context)
         return {i.key[0]: i for i in items}
 
-    def fresh():
+    def fresh():  # as the viewport evaluates: the morph left to the preprocess pass
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        return item_for(bpy.data.objects["cap"].evaluated_get(depsgraph), depsgraph)
+        return item_for(bpy.data.objects["cap"].evaluated_get(depsgraph), depsgraph, defer=on_gpu)
 
     before = current()
     for move in (lambda: setattr(reveal.gizmo, "location", (0.0, 0.0, -0.3)),
@@ -411,8 +412,12 @@ def test_moving_what_an_effect_reads_re_evaluates_it(bpy_empty):
         now = current()
         assert not np.array_equal(now["cap"].splats.positions, before["cap"].splats.positions) or \
             not np.array_equal(now["cap"].splats.opacities, before["cap"].splats.opacities)
-        np.testing.assert_array_equal(now["cap"].splats.positions, fresh().splats.positions)
-        np.testing.assert_array_equal(now["cap"].splats.opacities, fresh().splats.opacities)
+        want = fresh()
+        assert [type(d.params).__name__ for d in want.deferred] == ["Morph"]
+        np.testing.assert_array_equal(now["cap"].splats.positions, want.splats.positions)
+        np.testing.assert_array_equal(now["cap"].splats.opacities, want.splats.opacities)
+        np.testing.assert_array_equal(now["cap"].deferred[0].params.target.positions,
+                                      want.deferred[0].params.target.positions)
         assert now["plain"].splats is before["plain"].splats  # nothing it reads moved
         before = now
     plain.location = (0.0, 3.0, 0.0)

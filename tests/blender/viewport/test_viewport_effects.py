@@ -273,3 +273,93 @@ def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, te
     assert not whole[0].deferred
     assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
     assert psnr(image, draw_offscreen(first, camera)[0]) < 40.0  # the frames differ
+
+
+# radians: rounding the three smallest components (each <= 1/sqrt(2), so within 2^-12) to
+# halves moves a quaternion by |dq| <= 3 2^-12, a turn by twice that; once on each path
+ROTATION_STEP = 2.0 * 6.0 * 2.0 ** -12
+
+
+def _morph_scene(splats, t):
+    """A morph of `splats` to themselves turned, moved, grown and recoloured (paired in
+    order), with its params."""
+    from addon.core.effects import Morph, pair
+
+    c, s = np.cos(0.6), np.sin(0.6)
+    turn = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]], np.float32)
+    rng = np.random.default_rng(8)
+    other = replace(splats, positions=splats.positions @ turn.T + np.float32(0.1),
+                    opacities=np.float32(1.0) - splats.opacities,
+                    scales=splats.scales * rng.uniform(0.5, 2.0, splats.scales.shape).astype(np.float32),
+                    sh_dc=splats.sh_dc[::-1].copy(), sh_rest=splats.sh_rest[::-1].copy(),
+                    rotations=splats.rotations[::-1].copy())
+    return Morph(target=other, pairing=pair(splats.positions, other.positions), amount=t)
+
+
+@pytest.mark.parametrize("scene", ("guitar", "degree 3"))
+@pytest.mark.parametrize("t, then_grade", ((0.2, False), (0.5, True), (0.85, False)))
+def test_a_deferred_morph_draws_the_kernels_records(gpu_ready, capture, testdata, scene, t, then_grade):
+    """A morph blended in the preprocess pass against the kernel's blend uploaded whole:
+    guitar (degree 0) with its axes, and a degree-3 set (test64.ply and generated splats)
+    for the SH bands. The bar adds the rotations' rounding to the colour effects' bars."""
+    from addon.blender.viewport.effect_rows import on_gpu
+    from addon.core.effects import Grade
+    from addon.core.effects.deferral import drawn_splats
+    from testing.synth import random_splats
+
+    splats, world, camera = capture
+    if scene == "degree 3":
+        extra = random_splats(3000, 3, seed=5, spread=0.3)
+        own = read(testdata / "test64.ply")
+        splats = concatenated(own, extra)
+        item = RenderItem(splats, np.eye(4))
+        camera = framing_camera(item, 160, 120)
+        world = np.eye(4)
+    morph = _morph_scene(splats, t)
+    stack = [morph] + ([Grade(low=-1.0, high=1.0, frame=np.eye(4))] if then_grade else [])
+    on_cpu, deferred = split_stack(stack, on_gpu)
+    assert on_cpu == [] and [type(d.params) for d in deferred][0] is type(morph)
+    cpu = evaluate_stack(splats, stack, 0.0).splats
+    drawn = drawn_splats(evaluate_stack(splats, on_cpu, 0.0).splats, deferred)
+    items = [RenderItem(cpu, world, key=("cpu",)), RenderItem(drawn, world, key=("gpu",), deferred=deferred)]
+    order, rec = records(items, camera)
+    want, got = _by_splat(order, rec, splats.count)
+    assert len(want) > 0.3 * splats.count and set(want) <= set(got)
+    index = np.array(sorted(want), np.int64)
+    w, g = np.stack([want[i] for i in index]), np.stack([got[i] for i in index])
+    _check_morph(w, g, index, splats, morph.target, cpu)
+
+
+def concatenated(a, b):
+    from addon.core.splats import ARRAYS, SplatSet
+
+    return SplatSet(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in ARRAYS), axes=a.axes)
+
+
+def _check_morph(w, g, index, source, target, cpu):
+    opacity = np.asarray(cpu.opacities[index], np.float64)
+    slack = 2.0 ** -22 * (np.abs(source.opacities[index]) + np.abs(target.opacities[index])) + 1e-7
+    edge = np.abs(opacity - ALPHA_MIN) <= slack
+    culled_w, culled_g = ~w.any(1), ~g.any(1)
+    assert not ((culled_w != culled_g) & ~edge).any(), "culled on one side only"
+    ok = ~culled_w & ~culled_g & ~edge
+    assert ok.sum() > 0.5 * index.size
+    w, g, slack = w[ok], g[ok], slack[ok]
+    assert (np.abs(g[:, 7] - w[:, 7]) <= slack + 2.0 ** -22 * w[:, 7]).all(), "opacity"
+    np.testing.assert_array_equal(g[:, 0:3], w[:, 0:3], err_msg="centre, depth: the CPU's own blend")
+    # the covariance moves by 2 (scale + rotation error) of its largest eigenvalue, and
+    # its inverse, the conic, by that over the conic's smallest eigenvalue, squared
+    a, b, c = w[:, 4], w[:, 5], w[:, 6]
+    half_trace, root = 0.5 * (a + c), np.sqrt(0.25 * (a - c) ** 2 + b * b)
+    big, small = half_trace + root, np.maximum(half_trace - root, 1e-12)
+    # covariance: scales within two halves' rounding (relative), rotation within
+    # ROTATION_STEP, which moves it by at most twice that times its eigenvalues' spread
+    moved = 2.0 * (2.0 * HALF_STEP + 1e-6) / small + 2.0 * ROTATION_STEP * (1.0 / small - 1.0 / big)
+    conic_tol = 2.0 * moved * big * big + 1e-7  # first order, doubled
+    assert (np.abs(g[:, 4:7] - w[:, 4:7]) <= conic_tol[:, None]).all(), "conic"
+    radius_tol = (2.0 * HALF_STEP + ROTATION_STEP) * np.abs(w[:, 3]) + 1e-3
+    assert (np.abs(g[:, 3] - w[:, 3]) <= radius_tol).all(), "radius"
+    bands = [np.abs(s.sh_rest[index][ok]).sum(1) for s in (source, target, cpu)]
+    dcs = [np.abs(s.sh_dc[index][ok]) for s in (source, target, cpu)]
+    colour_tol = HALF_STEP * (C0 * sum(dcs) + 1.1 * sum(bands)) + 1e-5
+    assert (np.abs(g[:, 8:11] - w[:, 8:11]) <= colour_tol).all(), "colour"

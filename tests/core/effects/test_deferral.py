@@ -8,9 +8,9 @@ from dataclasses import fields, replace
 import numpy as np
 import pytest
 
-from addon.core.effects import (KINDS, Displace, Explode, Grade, Reveal, Twist, apply_effect,
-                                evaluate_stack)
-from addon.core.effects.deferral import Deferred, apply_deferred, split_stack
+from addon.core.effects import (KINDS, Displace, Explode, Grade, Morph, Reveal, Twist, apply_effect,
+                                evaluate_stack, pair)
+from addon.core.effects.deferral import Deferred, apply_deferred, drawn_splats, split_stack
 from addon.core.formats import read
 from testing.effect_cases import gizmo, grades, reveals
 
@@ -18,7 +18,10 @@ FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 
 
 def not_noise(p) -> bool:
-    """A renderer that applies colour effects by height or distance, as the viewport does."""
+    """A renderer that applies colour effects by height or distance and a morph paired in
+    order, as the viewport does."""
+    if type(p) is Morph:
+        return p.pairing.in_order
     return "NOISE" not in (getattr(p, "shape", None), getattr(p, "field", None))
 
 
@@ -38,6 +41,20 @@ TWIST = Twist(twist=0.8, frame=gizmo())
 NOISY = Reveal(shape="NOISE", progress=0.5, width=0.2, frequency=3.0)
 EXPLODE = Explode(fade=0.5)
 
+def morphs(capture):
+    """A morph to the capture turned, moved and recoloured (paired in order), and one to
+    a third of it (paired along the Morton curve)."""
+    c, s = np.cos(0.5), np.sin(0.5)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]], np.float32)
+    other = replace(capture, positions=capture.positions @ turn.T + np.float32(0.2),
+                    opacities=np.float32(1.0) - capture.opacities,
+                    scales=capture.scales * np.float32(1.4), sh_dc=capture.sh_dc + np.float32(0.3),
+                    rotations=capture.rotations[::-1].copy())
+    third = capture.subset(np.arange(0, capture.count, 3))
+    return (Morph(target=other, pairing=pair(capture.positions, other.positions), amount=0.35),
+            Morph(target=third, pairing=pair(capture.positions, third.positions), amount=0.6))
+
+
 # (stack, the CPU's part, the deferred ones as (params, at_rest))
 SPLITS = (
     ((REVEAL, DISPLACE, GRADE), (DISPLACE,), ((REVEAL, True), (GRADE, False))),
@@ -55,8 +72,29 @@ SPLITS = (
 )
 
 
+def _morph_splits(capture):
+    morph, uneven = morphs(capture)
+    return (
+        ((morph,), (), ((morph, False),)),
+        ((REVEAL, morph), (REVEAL,), ((morph, False),)),
+        ((morph, GRADE), (), ((morph, False), (GRADE, False))),
+        # a CPU effect after it reads the morph's output
+        ((morph, DISPLACE), (morph, DISPLACE), ()),
+        ((morph, DISPLACE, GRADE), (morph, DISPLACE), ((GRADE, False),)),
+        # paired along the Morton curve: the renderer does not take it
+        ((uneven, GRADE), (uneven,), ((GRADE, False),)),
+    )
+
+
+@pytest.mark.parametrize("case", range(6))
+def test_a_deferred_morph_is_the_stack_too(capture, case):
+    stack, cpu, deferred = _morph_splits(capture)[case]
+    test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred)
+
+
 @pytest.mark.parametrize("stack, cpu, deferred", SPLITS)
 def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred):
+    """And the drawn splats (drawn_splats) hold the stack's own centres."""
     got_cpu, got_deferred = split_stack(list(stack), not_noise)
     assert [id(p) for p in got_cpu] == [id(p) for p in cpu]
     assert got_deferred == tuple(Deferred(p, at_rest) for p, at_rest in deferred)
@@ -66,7 +104,11 @@ def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, d
     for f in FIELDS:
         a, b = getattr(got, f), getattr(want, f)
         np.testing.assert_array_equal(a.view(np.uint32), b.view(np.uint32), err_msg=f)
-    if deferred and not any(type(p) in (Reveal, Grade) for p in cpu):
+    drawn = drawn_splats(part, got_deferred)
+    np.testing.assert_array_equal(drawn.positions.view(np.uint32), want.positions.view(np.uint32))
+    for f in set(FIELDS) - {"positions"}:
+        assert getattr(drawn, f) is getattr(part, f), f
+    if deferred and not any(type(p) in (Reveal, Grade, Morph) for p in cpu):
         for f in ("scales", "sh_dc"):  # the colour the renderer re-uploads was left alone
             assert getattr(part, f) is getattr(capture, f), f
 

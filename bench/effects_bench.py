@@ -181,7 +181,8 @@ def bpy_table(n: int, runs: int) -> None:
 
 def morph_scrub(obj, n: int, collect, runs: int, stack) -> None:
     """A scrubbed frame of a morph alone (the stack disabled) towards another 1M-splat
-    object, its amount keyframed, evaluation to upload on the drawing thread."""
+    object, its amount keyframed, evaluation to upload on the drawing thread: blended in
+    the preprocess pass as the viewport does, then the kernel's blend uploaded whole."""
     import gpu
 
     from addon.blender.data.pointcloud import new_pointcloud_object
@@ -198,9 +199,10 @@ def morph_scrub(obj, n: int, collect, runs: int, stack) -> None:
         morph.amount = amount
         morph.keyframe_insert("amount", frame=frame)
     off = gpu.types.GPUOffScreen(WIDTH, HEIGHT, format="RGBA16F")
-    wall = _scrub_row(off, lambda frame: collect(frame, on_gpu), runs, "morph alone, worker sort", True)
+    wall = _scrub_row(off, lambda frame: collect(frame, on_gpu), runs, "morph, worker sort", True)
     print(f"goal: morph, a scrubbed frame from evaluation to upload, <= 33 ms on the drawing thread:"
           f" {wall:.1f} ms -> {'met' if wall <= 33.0 else 'MISSED'}")
+    _scrub_row(off, lambda frame: collect(frame, None), runs, "morph on the CPU, worker", True)
     off.free()
 
 

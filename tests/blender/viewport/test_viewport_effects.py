@@ -363,3 +363,48 @@ def _check_morph(w, g, index, source, target, cpu):
     dcs = [np.abs(s.sh_dc[index][ok]) for s in (source, target, cpu)]
     colour_tol = HALF_STEP * (C0 * sum(dcs) + 1.1 * sum(bands)) + 1e-5
     assert (np.abs(g[:, 8:11] - w[:, 8:11]) <= colour_tol).all(), "colour"
+
+
+def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_ready, testdata):
+    """Two captures imported by the import operator (the second turned and moved), a morph
+    between them added by the effect operator, its amount keyframed: the viewport's
+    evaluation defers the morph, so a scrubbed frame uploads the blended centres, the
+    order and the table, and draws what the kernel's blend uploaded whole draws."""
+    from addon.blender.evaluate.items import collect_items
+    from addon.blender.viewport import ViewportRenderer, packing
+    from addon.blender.viewport.effect_rows import on_gpu
+    from addon.core.effects import Morph
+    from testing.viewport_scene import psnr
+
+    bpy = bpy_empty
+    for name in ("guitar.ply", "guitar.ply"):
+        assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / name)) == {"FINISHED"}
+    source, target = sorted((o for o in bpy.data.objects if o.type == "POINTCLOUD"), key=lambda o: o.name)
+    target.location, target.rotation_euler = (0.4, 0.0, 0.3), (1.2, 0.0, 0.5)
+    target.splatline.look.visible = False
+    with bpy.context.temp_override(object=source):
+        assert bpy.ops.splatline.effect_add(type="MORPH") == {"FINISHED"}
+    morph = source.splatline.effects[0]
+    morph.target = target
+    for frame, amount in ((1, 0.0), (20, 1.0)):
+        morph.amount = amount
+        morph.keyframe_insert("amount", frame=frame)
+
+    def at(frame, defer):
+        bpy.context.scene.frame_set(frame)
+        return collect_items(bpy.context.evaluated_depsgraph_get(), defer)
+
+    first = at(6, on_gpu)
+    assert [type(d.params) for d in first[0].deferred] == [Morph]
+    camera = framing_camera(first[0], 160, 120)
+    renderer = ViewportRenderer()
+    draw_offscreen(first, camera, renderer=renderer)
+    assert {"morph_pos", "morph_shape", "morph_sh"} <= set(renderer.gpu.textures)
+    later = at(13, on_gpu)
+    image, _ = draw_offscreen(later, camera, renderer=renderer)
+    n = packing.padded(later[0].splats.count)
+    assert 16 * n <= renderer.stats.frame_bytes < (16 + 4) * n + 4096  # pos, order, table
+    whole = at(13, None)
+    assert not whole[0].deferred
+    assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
+    assert psnr(image, draw_offscreen(first, camera)[0]) < 40.0  # the frames differ

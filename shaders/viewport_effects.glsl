@@ -1,9 +1,9 @@
 // Viewport (Blender gpu module): the colour effects the preprocess pass applies itself
-// (Reveal and Grade by height or distance, core/effects/deferral.py), each the numpy
+// (Reveal and Grade by height, distance or noise, core/effects/deferral.py), each the numpy
 // kernel's arithmetic in the same order (core/effects/reveal.py, grade.py), on the base
 // splats' opacity, |scale| and SH DC. Rows: addon/blender/viewport/effect_rows.py;
 // pinned to the kernels by tests/blender/viewport/test_viewport_effects.py.
-// Needs object_tex declared (GPUShaderCreateInfo) and SL_SH_C0 from splat_math.glsl.
+// Needs object_tex and field_tex declared (GPUShaderCreateInfo) and SL_SH_C0 from splat_math.glsl.
 
 const int EFFECT_TEXELS = 8;
 
@@ -12,9 +12,14 @@ vec4 effect_texel(int row, int k)
     return texelFetch(object_tex, ivec2(row + k, 0), 0);
 }
 
-// common.field_values: local = rows of gizmo-from-object applied term by term
-float effect_field(int row, int field, vec3 at)
+// common.field_values: local = rows of gizmo-from-object applied term by term; noise:
+// the core's memoized values at the rest centres, from the object's segment of field_tex
+float effect_field(int row, int field, vec3 at, int local_splat)
 {
+    if (field == 2) {
+        int texel = int(effect_texel(row, 1).x) + local_splat;
+        return texelFetch(field_tex, ivec2(texel % sizes.x, texel / sizes.x), 0).x * 0.5 + 0.5;
+    }
     vec4 r2 = effect_texel(row, 3);
     float z = ((at.x * r2.x + at.y * r2.y) + at.z * r2.z) + r2.w;
     if (field == 0) return z;
@@ -62,14 +67,15 @@ void grade_effect(int row, float gain, float f, inout vec3 dc)
 }
 
 // Apply `count` effects whose rows start at texel `first`, in stack order. `at` and
-// `rest`: the splat's final and input centres (equal when nothing moved it).
-void apply_effects(int first, int count, vec3 at, vec3 rest, inout float opacity,
+// `rest`: the splat's final and input centres (equal when nothing moved it); local_splat:
+// its index within its object.
+void apply_effects(int first, int count, vec3 at, vec3 rest, int local_splat, inout float opacity,
                    inout vec3 scale, inout vec3 dc)
 {
     for (int e = 0; e < count; e++) {
         int row = first + e * EFFECT_TEXELS;
         vec4 head = effect_texel(row, 0);
-        float f = effect_field(row, int(head.y), head.z > 0.5 ? rest : at);
+        float f = effect_field(row, int(head.y), head.z > 0.5 ? rest : at, local_splat);
         if (int(head.x) == 1) reveal_effect(row, head.w, f, opacity, scale, dc);
         else grade_effect(row, head.w, f, dc);
     }

@@ -95,12 +95,12 @@ void shape_of(sampler2D tex, int splat, out vec4 q, out vec3 scale, out vec3 dc)
     dc = vec3(v[6], v[7], v[8]);
 }
 
-// morph.slerp: shortest arc, nlerp where sin(theta) < 1e-5, normalised
-vec4 morph_slerp(vec4 a, vec4 b, float t)
+// morph.slerp: b turned by `turn` onto a's hemisphere (the kernel's arc: its sign is the
+// CPU's, as near q.q' = 0 rounding could pick the other), nlerp where sin(theta) < 1e-5
+vec4 morph_slerp(vec4 a, vec4 b, float turn, float t)
 {
-    float d = dot(a, b);
-    b *= d < 0.0 ? -1.0 : 1.0;
-    float theta = acos(min(abs(d), 1.0));
+    b *= turn;
+    float theta = acos(min(abs(dot(a, b)), 1.0));
     float s = sin(theta);
     bool near = s < 1e-5;
     float w0 = near ? 1.0 - t : sin(theta * (1.0 - t)) / s;
@@ -117,10 +117,11 @@ void morph_splat(int splat, float t, inout float opacity, inout vec3 scale, inou
     vec4 other_q;
     vec3 other_scale, other_dc;
     shape_of(morph_shape_tex, splat, other_q, other_scale, other_dc);
-    opacity = opacity + (fetch(morph_pos_tex, splat).w - opacity) * t;
+    vec4 other = fetch(morph_pos_tex, splat);  // x: the arc's turn, w: the target's opacity
+    opacity = opacity + (other.w - opacity) * t;
     scale = scale + (other_scale - scale) * t;
     dc = dc + (other_dc - dc) * t;
-    q = morph_slerp(q, other_q, t);
+    q = morph_slerp(q, other_q, other.x, t);
 }
 
 vec3 srgb_to_linear(vec3 c)
@@ -161,7 +162,8 @@ void main()
     }
     if (effects.y > 0.0) {
         vec3 rest = effects.z > 0.5 ? fetch(rest_tex, splat).xyz : p.xyz;
-        apply_effects(int(effects.x), int(effects.y), p.xyz, rest, opacity, scale, dc);
+        apply_effects(int(effects.x), int(effects.y), p.xyz, rest, splat - int(ortho_dir.w), opacity,
+                      scale, dc);
     }
     opacity *= o1.w;
 

@@ -10,8 +10,10 @@ core/effects/deferral.py's rule; final renders and Blender's own engines never d
 
 Rows, EFFECT_TEXELS texels of RGBA32F per effect, after the objects' rows in the same
 table texture:
-    0      kind (1 reveal, 2 grade), field (0 height, 1 distance), at rest, amount
-    1..3   rows 0..2 of gizmo-local from object (field = these applied to the centre)
+    0      kind (1 reveal, 2 grade), field (0 height, 1 distance, 2 noise), at rest, amount
+    1..3   rows 0..2 of gizmo-local from object (field = these applied to the centre);
+           noise: 1.x the texel of the fields texture holding the object's first splat's
+           value (the core's memoized noise at the rest centres, field_values' mapping)
 reveal:
     4      progress, -1 / width, invert, amount * shrink
     5      glow colour rgb, 4 amount glow_strength / C0 (0: no glow)
@@ -33,8 +35,8 @@ from ...core.sh import C0
 EFFECT_TEXELS = 8
 MAX_STOPS = 3
 REVEAL, GRADE = 1, 2
-_REVEAL_FIELDS = {"PLANE": 0, "SPHERE": 1}
-_GRADE_FIELDS = {"HEIGHT": 0, "DISTANCE": 1}
+_REVEAL_FIELDS = {"PLANE": 0, "SPHERE": 1, "NOISE": 2}
+_GRADE_FIELDS = {"HEIGHT": 0, "DISTANCE": 1, "NOISE": 2}
 
 
 def _finite(*values) -> bool:
@@ -42,9 +44,10 @@ def _finite(*values) -> bool:
 
 
 def on_gpu(params) -> bool:
-    """Whether the preprocess pass can apply this effect: reveal and grade by height or
-    distance. Amount and shrink within [0, 1] (the panel's ranges) keep the base scales
-    an upper bound of the drawn ones, which the sort's culling radius relies on."""
+    """Whether the preprocess pass can apply this effect: reveal and grade (by height,
+    distance or noise), and a morph paired in order. Amount and shrink within [0, 1] (the
+    panel's ranges) keep the base scales an upper bound of what a colour effect draws,
+    which the sort's culling radius relies on."""
     if not (getattr(params, "active", False) and 0.0 < params.amount <= 1.0):
         return False
     if not _finite(np.asarray(params.frame, np.float64)):
@@ -68,16 +71,24 @@ def morph_of(deferred: tuple):
     return deferred[0].params if deferred and type(deferred[0].params) is Morph else None
 
 
-def effect_rows(deferred: tuple) -> np.ndarray:
+def is_noise(params) -> bool:
+    return "NOISE" in (getattr(params, "shape", None), getattr(params, "field", None))
+
+
+def effect_rows(deferred: tuple, field_starts: list = ()) -> np.ndarray:
     """(EFFECT_TEXELS rows per colour effect, 4) float32: the deferred colour effects'
-    rows, in order (a morph's amount is on the object's row)."""
+    rows, in order (a morph's amount is on the object's row). field_starts: for each
+    noise effect in order, the fields texture's texel of the object's first value."""
     deferred = [d for d in deferred if type(d.params) is not Morph]
     rows = np.zeros((len(deferred) * EFFECT_TEXELS, 4), np.float32)
+    starts = iter(field_starts)
     for k, d in enumerate(deferred):
         part = rows[k * EFFECT_TEXELS:(k + 1) * EFFECT_TEXELS]
         p = d.params
-        local = np.eye(4) if is_identity(p.frame) else inverse(p.frame)
-        part[1:4] = local[:3]
+        if is_noise(p):
+            part[1, 0] = next(starts)
+        else:
+            part[1:4] = (np.eye(4) if is_identity(p.frame) else inverse(p.frame))[:3]
         if type(p) is Reveal:
             part[0] = (REVEAL, _REVEAL_FIELDS[p.shape], d.at_rest, p.amount)
             _reveal(part, p)

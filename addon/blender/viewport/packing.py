@@ -237,6 +237,30 @@ def shape_rotation(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return three, largest
 
 
+def stored_signs(q: np.ndarray, largest: np.ndarray) -> np.ndarray:
+    """(N,) float32 +-1: what shape_rotation multiplied each quaternion by (its largest
+    component made positive)."""
+    kept = np.take_along_axis(np.asarray(q, np.float32), largest.astype(np.int64)[:, None], axis=1)[:, 0]
+    return np.where(kept < 0.0, np.float32(-1.0), np.float32(1.0))
+
+
+def pack_morph_target(source_q: np.ndarray, target: SplatSet, degree: int) -> np.ndarray:
+    """A deferred morph's target in the pos layout: w the opacity (NaN where not drawable),
+    x the sign the shader turns the target's stored quaternion by so that its slerp takes
+    the kernel's arc (morph.arc_signs, undoing what shape_rotation's signs did to both);
+    y, z unused."""
+    from ...core.effects.morph import arc_signs  # (the one viewport use of the kernels' maths)
+
+    flat = pack_pos(target, drawable(target, degree))
+    n = target.count
+    signs = arc_signs(source_q, target.rotations)
+    signs *= stored_signs(source_q, shape_rotation(source_q)[1])
+    signs *= stored_signs(target.rotations, shape_rotation(target.rotations)[1])
+    flat[:n, 0] = signs
+    flat[:n, 1:3] = 0.0
+    return flat
+
+
 def shape_scales(scales: np.ndarray, largest: np.ndarray) -> np.ndarray:
     """The shape stream's scale part: |scale| as halves (a zero as HALF_TINY, the smallest
     positive half), signs carrying `largest`. The readable whole; halves_into(out, scales,

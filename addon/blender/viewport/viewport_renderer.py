@@ -17,7 +17,9 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .effect_rows import effect_rows, morph_of
+from ...core.effects import noise
+from ...core.effects.morph import Morph
+from .effect_rows import effect_rows, is_noise, morph_of
 from .pack_cache import PackCache, data_key, positions_key_of, reads_rest
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
@@ -89,6 +91,26 @@ def _degree(item: RenderItem, display: ItemDisplay) -> int:
     return max(0, min(item.sh_degree, display.max_sh_degree, data))
 
 
+def noise_rows(item: RenderItem, params) -> np.ndarray:
+    """The memoized noise a deferred effect's field reads: at the stack's input centres
+    while the count is theirs, else at the drawn ones (as deferral.apply_deferred)."""
+    rest = item.rest_positions
+    positions = rest if rest is not None and rest.shape[0] == item.splats.count else item.splats.positions
+    return noise.field_rows(positions, params.frame, params.frequency, params.seed)
+
+
+def _cull_scales(item: RenderItem) -> tuple:
+    """The scales that bound what the preprocess pass draws: the item's own (a deferred
+    colour effect only shrinks them), and a deferred morph's target's (a lerp stays
+    within the larger of its ends)."""
+    morph = morph_of(item.deferred)
+    return (item.splats.scales,) if morph is None else (item.splats.scales, morph.target.scales)
+
+
+def _radius(scales: tuple) -> np.ndarray:
+    return bounding_radius(scales[0] if len(scales) == 1 else np.maximum(*scales))
+
+
 def _morph_sources(params) -> tuple:
     t = None if params is None else params.target
     return (None,) if t is None else (t.positions, t.opacities, t.rotations, t.scales, t.sh_dc, t.sh_rest)
@@ -102,6 +124,7 @@ class ViewportRenderer:
         self.packs = PackCache()
         self.pos, self.shape = PosStage(), ShapeStage()
         self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
+        self.field_starts = []  # per object: its noise effects' first texels (_upload_fields)
         self.worker = SortWorker(on_sorted) if worker else None
 
     def close(self) -> None:
@@ -170,13 +193,14 @@ class ViewportRenderer:
         start = time.perf_counter()
         counts = [i.splats.count for i in items]
         builds = {
-            "morph_pos": (4, lambda t, n, g: packing.pack_pos(t.target, packing.drawable(t.target, g))),
-            "morph_shape": (packing.SHAPE_VALUES, lambda t, n, g: packing.pack_shape(t.target)),
-            "morph_sh": (values, lambda t, n, g: packing.pack_sh(t.target, g, values))}
+            "morph_pos": (4, lambda t, n, g, q: packing.pack_morph_target(q, t.target, g)),
+            "morph_shape": (packing.SHAPE_VALUES, lambda t, n, g, q: packing.pack_shape(t.target)),
+            "morph_sh": (values, lambda t, n, g, q: packing.pack_sh(t.target, g, values))}
         for name, (per_splat, build) in builds.items():
-            got = [self.packs.get(name, i, _morph_sources(t), extra=(g, values), key=i.base_key,
-                                  build=lambda t=t, n=n, g=g, b=build, k=per_splat:
-                                  packing.stream(n * k) if t is None else b(t, n, g))
+            got = [self.packs.get(name, i, _morph_sources(t) + (i.splats.rotations,), extra=(g, values),
+                                  key=i.base_key,
+                                  build=lambda t=t, n=n, g=g, b=build, k=per_splat, q=i.splats.rotations:
+                                  packing.stream(n * k) if t is None else b(t, n, g, q))
                    for i, t, n, g in zip(items, targets, counts, degrees)]
             token = tuple(ident for ident, _ in got)
             if self.state.tokens.get(name) == token:
@@ -185,6 +209,36 @@ class ViewportRenderer:
             self.gpu.set_texture(name, flat)
             self.state.tokens[name] = token
             self.stats.uploads += 1
+        return time.perf_counter() - start
+
+    def _upload_fields(self, items) -> float:
+        """Deferred noise effects' values: the core's memoized noise at the rest centres
+        (noise.field_rows: the same array while memoized, so uploaded once), a segment per
+        object and effect; self.field_starts: each object's segments' first texels."""
+        got, self.field_starts, texel = [], [], 0
+        for i in items:
+            starts = []
+            for d in i.deferred:
+                if type(d.params) is not Morph and is_noise(d.params):
+                    rows = noise_rows(i, d.params)
+                    got.append(self.packs.get("fields", i, (rows,), lambda rows=rows: rows.reshape(-1),
+                                              key=i.base_key))
+                    starts.append(texel)
+                    texel += i.splats.count
+            self.field_starts.append(starts)
+        if not got:
+            self.gpu.drop("fields")
+            self.state.tokens.pop("fields", None)
+            return 0.0
+        token = tuple(ident for ident, _ in got)
+        if self.state.tokens.get("fields") == token:
+            return 0.0
+        start = time.perf_counter()
+        flat = np.zeros(packing.padded(texel), np.float32)
+        np.concatenate([values for _, values in got], out=flat[:texel])
+        self.gpu.set_texture("fields", flat)
+        self.state.tokens["fields"] = token
+        self.stats.uploads += 1
         return time.perf_counter() - start
 
     def _upload_rest(self, items) -> float:
@@ -241,6 +295,7 @@ class ViewportRenderer:
         seconds += self._upload_pos(items, valid)
         seconds += self._upload_shape(items)
         seconds += self._upload_rest(items)
+        seconds += self._upload_fields(items)
         seconds += self._texture("sh", items, values, ("sh_rest",),
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
@@ -254,8 +309,7 @@ class ViewportRenderer:
         soa = [self.packs.get("centres", i, (i.splats.positions,),
                               lambda i=i: Deferred(centres_layout, i.splats.positions), key=positions_key_of(i))
                for i in items]
-        radii = [self.packs.get("radius", i, (i.splats.scales,),
-                                lambda i=i: Deferred(bounding_radius, i.splats.scales),
+        radii = [self.packs.get("radius", i, _cull_scales(i), lambda i=i: Deferred(_radius, _cull_scales(i)),
                                 key=data_key(i, ("scales",)))
                  for i in items]
         token = tuple(ident for ident, _ in soa)
@@ -375,14 +429,14 @@ class ViewportRenderer:
     def _update_objects(self, items, displays, l2c, ortho) -> None:
         rows, effects, first = [], [], 0
         texel = len(items) * packing.OBJECT_TEXELS  # the effects' rows follow the objects'
-        for item, d, m in zip(items, displays, l2c):
+        for item, d, m, starts in zip(items, displays, l2c, self.field_starts):
             morph = morph_of(item.deferred)
             colour = len(item.deferred) - (morph is not None)
             rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale,
                                             _degree(item, d), MODES[d.mode], d.sh_only, item.color_matrix,
                                             ortho, first, (texel, colour, reads_rest(item),
                                                            0.0 if morph is None else morph.amount)))
-            effects.append(effect_rows(item.deferred))
+            effects.append(effect_rows(item.deferred, starts))
             texel += effects[-1].shape[0]
             first += item.splats.count
         table = np.concatenate(rows + effects)

@@ -110,11 +110,23 @@ class SlerpSetup:
     near: np.ndarray # indices of those pairs (nlerp weights), ascending
 
 
-def slerp_setup(q0: np.ndarray, q1: np.ndarray) -> SlerpSetup:
-    a, b = split(q0), split(q1)
+def _dot(a: list, b: list) -> np.ndarray:
     dot = a[0] * b[0]
     for i in range(1, 4):
         dot += a[i] * b[i]
+    return dot
+
+
+def arc_signs(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """(N,) float32 +-1: the sign slerp turns q1 by, onto q0's hemisphere (the shortest arc).
+    Where q0.q1 is near 0 either arc is as short, and the sign is this rounding's: a renderer
+    that slerps rounded quaternions takes it from here to turn the same way."""
+    return np.copysign(F32(1.0), _dot(split(q0), split(q1)))
+
+
+def slerp_setup(q0: np.ndarray, q1: np.ndarray) -> SlerpSetup:
+    a, b = split(q0), split(q1)
+    dot = _dot(a, b)
     sign = np.copysign(F32(1.0), dot)
     for col in b:
         col *= sign  # b (w1 sign) = (b sign) w1 bit for bit: a product's sign is its own

@@ -81,10 +81,7 @@ def cases():
 def _fitted(p, splats):
     """p with its threshold or range moved into the capture's field values (the cases'
     -0.5..2 as fractions of its middle 80%), so that each case draws both sides."""
-    from addon.core.effects.common import field_values
-
-    kind = {"PLANE": "HEIGHT", "SPHERE": "DISTANCE"}.get(getattr(p, "shape", None), getattr(p, "field", None))
-    f = field_values(splats.positions, p.frame, kind)
+    f = _field_at(splats.positions, splats.positions, p)
     lo, hi = np.quantile(f, (0.1, 0.9))
 
     def at(x):  # the cases' values, 0..1 across the middle of the capture
@@ -111,11 +108,13 @@ def test_the_cases_meet_every_branch():
     assert {d[0].at_rest for d in deferred} == {True, False}
     reveal = [d[0].params for d in deferred if hasattr(d[0].params, "shape")]
     grade = [d[0].params for d in deferred if hasattr(d[0].params, "mode")]
-    for what in (lambda p: p.shape, lambda p: p.invert, lambda p: p.width > 0,
-                 lambda p: p.shrink > 0, lambda p: p.glow_strength > 0, lambda p: p.amount < 1):
+    assert {p.shape for p in reveal} == {"PLANE", "SPHERE", "NOISE"}
+    for what in (lambda p: p.invert, lambda p: p.width > 0, lambda p: p.shrink > 0,
+                 lambda p: p.glow_strength > 0, lambda p: p.amount < 1):
         assert len({what(p) for p in reveal}) == 2
     assert {(p.field, p.mode, len(p.stops)) for p in grade} >= {
-        (f, m, k) for f in ("HEIGHT", "DISTANCE") for m in ("MIX", "MULTIPLY", "ADD") for k in (2, 3)}
+        (f, m, k) for f in ("HEIGHT", "DISTANCE", "NOISE") for m in ("MIX", "MULTIPLY", "ADD")
+        for k in (2, 3)}
     assert any(p.low == p.high for p in grade)
 
 
@@ -183,8 +182,8 @@ def _slack(splats, cpu, part, params, index) -> dict:
     from addon.core.effects.common import inverse
 
     rows = np.abs(inverse(params.frame)[:3])
-    df = np.zeros(index.size)
-    for centres in (splats.positions, part.positions):
+    df = np.full(index.size, 2.0 ** -24)  # noise: the same values, mapped by the same operations
+    for centres in (() if _kind(params) == "NOISE" else (splats.positions, part.positions)):
         c = np.abs(np.asarray(centres[index], np.float64))
         terms = c @ rows[:, :3].T + rows[:, 3]  # |x r0| + |y r1| + |z r2| + |r3| per axis
         df = np.maximum(df, 8.0 * 2.0 ** -24 * np.linalg.norm(terms, axis=1))
@@ -211,25 +210,39 @@ def _slack(splats, cpu, part, params, index) -> dict:
     base = np.abs(C0 * splats.sh_dc[index] + 0.5).max(1)  # multiply scales the gradient's error
     out["colour"] = params.amount * max(slopes, default=0.0) * dx * np.maximum(1.0, base)
     kinks = [params.low + at * span for at in steps + [0.0, 1.0]]  # a step, the clip's ends
-    for f in _fields(splats, part, params.frame, params.field, index):
+    for f in _fields(splats, part, params, index):
         for at in kinks:  # where f may cross one, the slope bound does not hold
             out["edge"] |= np.abs(f - at) <= 2.0 * df
     return out
 
 
-def _fields(splats, part, frame, kind, index):
-    """The field at the rest centres and at the drawn ones (a deferred effect reads one)."""
-    from addon.core.effects.common import field_values
+def _kind(params) -> str:
+    """The field a reveal's shape or a grade's field measures (common.field_values' kinds)."""
+    shape = getattr(params, "shape", None)
+    return {"PLANE": "HEIGHT", "SPHERE": "DISTANCE"}.get(shape, shape) or params.field
 
-    return [field_values(c[index], frame, kind).astype(np.float64) for c in (splats.positions, part.positions)]
+
+def _field_at(centres, rest, params) -> np.ndarray:
+    """common.field_values of the effect's kind (noise: at the rest centres, memoized)."""
+    from addon.core.effects.common import field_values
+    from addon.core.effects.noise import rest_field
+
+    kind = _kind(params)
+    noise = rest_field(None, rest, params) if kind == "NOISE" else None
+    return field_values(centres, params.frame, kind, noise).astype(np.float64)
+
+
+def _fields(splats, part, params, index):
+    """The field at the rest centres and at the drawn ones (a deferred effect reads one)."""
+    return [_field_at(c, splats.positions, params)[index] for c in (splats.positions, part.positions)]
 
 
 def _field_near(splats, part, params, index, df) -> np.ndarray:
-    kind = "HEIGHT" if params.shape == "PLANE" else "DISTANCE"
     near = np.zeros(index.size, bool)
-    for f in _fields(splats, part, params.frame, kind, index):
+    for f in _fields(splats, part, params, index):
         near |= np.abs(f - params.progress) <= 2.0 * df
     return near
+
 
 
 def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, testdata):
@@ -288,11 +301,17 @@ def _morph_scene(splats, t):
     c, s = np.cos(0.6), np.sin(0.6)
     turn = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]], np.float32)
     rng = np.random.default_rng(8)
+    rotations = splats.rotations[::-1].copy()
+    # every fifth pair half a turn apart (q.q' = 0 but for rounding): either arc is as
+    # short, and the drawing must take the kernel's
+    q, axis = splats.rotations[::5].astype(np.float64), np.array([0.0, 0.6, 0.8])
+    rotations[::5, 0] = -(q[:, 1:] @ axis)
+    rotations[::5, 1:] = q[:, :1] * axis + np.cross(axis, q[:, 1:])
     other = replace(splats, positions=splats.positions @ turn.T + np.float32(0.1),
                     opacities=np.float32(1.0) - splats.opacities,
                     scales=splats.scales * rng.uniform(0.5, 2.0, splats.scales.shape).astype(np.float32),
                     sh_dc=splats.sh_dc[::-1].copy(), sh_rest=splats.sh_rest[::-1].copy(),
-                    rotations=splats.rotations[::-1].copy())
+                    rotations=rotations)
     return Morph(target=other, pairing=pair(splats.positions, other.positions), amount=t)
 
 

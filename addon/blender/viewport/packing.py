@@ -29,6 +29,7 @@ from ...core.camera import Camera
 from ...core.clip_space import camera_from_projection
 from ...core.preprocess import camera_in_object, j_clamp_bounds, split_float
 from ...core.effects.common import for_blocks
+from ...core.effects.morph import arc_signs
 from ...core.splats import SplatSet, sh_coeff_count
 
 WIDTH = 4096          # texels per row of every data texture
@@ -249,8 +250,6 @@ def pack_morph_target(source_q: np.ndarray, target: SplatSet, degree: int) -> np
     x the sign the shader turns the target's stored quaternion by so that its slerp takes
     the kernel's arc (morph.arc_signs, undoing what shape_rotation's signs did to both);
     y, z unused."""
-    from ...core.effects.morph import arc_signs  # (the one viewport use of the kernels' maths)
-
     flat = pack_pos(target, drawable(target, degree))
     n = target.count
     signs = arc_signs(source_q, target.rotations)

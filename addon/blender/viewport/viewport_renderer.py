@@ -17,9 +17,8 @@ import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from ...core.effects import noise
-from ...core.effects.morph import Morph
-from .effect_rows import effect_rows, is_noise, morph_of
+from .effect_rows import effect_rows, morph_of
+from .effect_textures import EffectTextures
 from .pack_cache import PackCache, data_key, positions_key_of, reads_rest
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
@@ -91,14 +90,6 @@ def _degree(item: RenderItem, display: ItemDisplay) -> int:
     return max(0, min(item.sh_degree, display.max_sh_degree, data))
 
 
-def noise_rows(item: RenderItem, params) -> np.ndarray:
-    """The memoized noise a deferred effect's field reads: at the stack's input centres
-    while the count is theirs, else at the drawn ones (as deferral.apply_deferred)."""
-    rest = item.rest_positions
-    positions = rest if rest is not None and rest.shape[0] == item.splats.count else item.splats.positions
-    return noise.field_rows(positions, params.frame, params.frequency, params.seed)
-
-
 def _cull_scales(item: RenderItem) -> tuple:
     """The scales that bound what the preprocess pass draws: the item's own (a deferred
     colour effect only shrinks them), and a deferred morph's target's (a lerp stays
@@ -111,11 +102,6 @@ def _radius(scales: tuple) -> np.ndarray:
     return bounding_radius(scales[0] if len(scales) == 1 else np.maximum(*scales))
 
 
-def _morph_sources(params) -> tuple:
-    t = None if params is None else params.target
-    return (None,) if t is None else (t.positions, t.opacities, t.rotations, t.scales, t.sh_dc, t.sh_rest)
-
-
 class ViewportRenderer:
     def __init__(self, worker: bool = False, on_sorted=None):
         self.gpu = None  # created on the first draw, inside a GPU context
@@ -124,7 +110,7 @@ class ViewportRenderer:
         self.packs = PackCache()
         self.pos, self.shape = PosStage(), ShapeStage()
         self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
-        self.field_starts = []  # per object: its noise effects' first texels (_upload_fields)
+        self.effects = EffectTextures()
         self.worker = SortWorker(on_sorted) if worker else None
 
     def close(self) -> None:
@@ -135,6 +121,7 @@ class ViewportRenderer:
         self.state = _State()
         self.packs = PackCache()
         self.pos, self.shape = PosStage(), ShapeStage()
+        self.effects = EffectTextures()
         self.last_valid, self.next_valid = {}, {}
 
     # -- data ---------------------------------------------------------------
@@ -181,88 +168,6 @@ class ViewportRenderer:
         self.stats.uploads += 1
         return time.perf_counter() - start
 
-    def _upload_morph(self, items, degrees, values) -> float:
-        """A deferred morph's target data, in the pos, shape and sh layouts (uploaded once:
-        the target's arrays are the same every frame); zeros for objects without one."""
-        targets = [morph_of(i.deferred) for i in items]
-        if all(t is None for t in targets):
-            for name in packing.MORPH:
-                self.gpu.drop(name)
-                self.state.tokens.pop(name, None)
-            return 0.0
-        start = time.perf_counter()
-        counts = [i.splats.count for i in items]
-        builds = {
-            "morph_pos": (4, lambda t, n, g, q: packing.pack_morph_target(q, t.target, g)),
-            "morph_shape": (packing.SHAPE_VALUES, lambda t, n, g, q: packing.pack_shape(t.target)),
-            "morph_sh": (values, lambda t, n, g, q: packing.pack_sh(t.target, g, values))}
-        for name, (per_splat, build) in builds.items():
-            got = [self.packs.get(name, i, _morph_sources(t) + (i.splats.rotations,), extra=(g, values),
-                                  key=i.base_key,
-                                  build=lambda t=t, n=n, g=g, b=build, k=per_splat, q=i.splats.rotations:
-                                  packing.stream(n * k) if t is None else b(t, n, g, q))
-                   for i, t, n, g in zip(items, targets, counts, degrees)]
-            token = tuple(ident for ident, _ in got)
-            if self.state.tokens.get(name) == token:
-                continue
-            flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
-            self.gpu.set_texture(name, flat)
-            self.state.tokens[name] = token
-            self.stats.uploads += 1
-        return time.perf_counter() - start
-
-    def _upload_fields(self, items) -> float:
-        """Deferred noise effects' values: the core's memoized noise at the rest centres
-        (noise.field_rows: the same array while memoized, so uploaded once), a segment per
-        object and effect; self.field_starts: each object's segments' first texels."""
-        got, self.field_starts, texel = [], [], 0
-        for i in items:
-            starts = []
-            for d in i.deferred:
-                if type(d.params) is not Morph and is_noise(d.params):
-                    rows = noise_rows(i, d.params)
-                    got.append(self.packs.get("fields", i, (rows,), lambda rows=rows: rows.reshape(-1),
-                                              key=i.base_key))
-                    starts.append(texel)
-                    texel += i.splats.count
-            self.field_starts.append(starts)
-        if not got:
-            self.gpu.drop("fields")
-            self.state.tokens.pop("fields", None)
-            return 0.0
-        token = tuple(ident for ident, _ in got)
-        if self.state.tokens.get("fields") == token:
-            return 0.0
-        start = time.perf_counter()
-        flat = np.zeros(packing.padded(texel), np.float32)
-        np.concatenate([values for _, values in got], out=flat[:texel])
-        self.gpu.set_texture("fields", flat)
-        self.state.tokens["fields"] = token
-        self.stats.uploads += 1
-        return time.perf_counter() - start
-
-    def _upload_rest(self, items) -> float:
-        """The effects' input centres, for deferred effects measured there while others
-        move the splats (the base's positions: uploaded once, not per frame)."""
-        reads = [reads_rest(i) for i in items]
-        if not any(reads):
-            self.gpu.drop("rest")
-            self.state.tokens.pop("rest", None)
-            return 0.0
-        start = time.perf_counter()
-        got = [self.packs.get("rest", i, (i.rest_positions if r else None,),
-                              lambda i=i, r=r: packing.pack_xyz(i.rest_positions if r else None, i.splats.count),
-                              key=i.base_key) for i, r in zip(items, reads)]
-        token = tuple(ident for ident, _ in got)
-        if self.state.tokens.get("rest") == token:
-            return 0.0
-        counts = [i.splats.count for i in items]
-        flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, 4)
-        self.gpu.set_texture("rest", flat)
-        self.state.tokens["rest"] = token
-        self.stats.uploads += 1
-        return time.perf_counter() - start
-
     def _valid(self, item, degree) -> np.ndarray:
         """packing.drawable, a field at a time: each part is kept while its field is (a
         colour effect recomputes the SH DC test alone), and an unchanged result is the
@@ -294,12 +199,12 @@ class ViewportRenderer:
         seconds = time.perf_counter() - start
         seconds += self._upload_pos(items, valid)
         seconds += self._upload_shape(items)
-        seconds += self._upload_rest(items)
-        seconds += self._upload_fields(items)
         seconds += self._texture("sh", items, values, ("sh_rest",),
                                  lambda i: packing.pack_sh(i.splats, by_item[id(i)], values),
                                  extra=(tuple(degrees), values))
-        seconds += self._upload_morph(items, degrees, values)
+        uploads = self.effects.uploads
+        seconds += self.effects.upload(items, degrees, values, self.gpu, self.packs)
+        self.stats.uploads += self.effects.uploads - uploads
         self.gpu.sh_values = values
         # Filed under positions_key: a colour, opacity or scale effect changes item.key
         # every frame but not the centres, and must not cost a re-sort.
@@ -429,7 +334,7 @@ class ViewportRenderer:
     def _update_objects(self, items, displays, l2c, ortho) -> None:
         rows, effects, first = [], [], 0
         texel = len(items) * packing.OBJECT_TEXELS  # the effects' rows follow the objects'
-        for item, d, m, starts in zip(items, displays, l2c, self.field_starts):
+        for item, d, m, starts in zip(items, displays, l2c, self.effects.field_starts):
             morph = morph_of(item.deferred)
             colour = len(item.deferred) - (morph is not None)
             rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale,

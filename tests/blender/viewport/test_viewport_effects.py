@@ -244,17 +244,12 @@ def _field_near(splats, part, params, index, df) -> np.ndarray:
     return near
 
 
-
 def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, testdata):
     """Through Blender: a capture imported by the import operator, a reveal, a displace and
     a grade added by the effect operator. The viewport's evaluation defers the reveal and
     the grade, so a scrubbed frame uploads the displaced centres, the order and the table
     but no colour; it draws what the whole stack evaluated on the CPU draws."""
-    from addon.blender.evaluate.items import collect_items
-    from addon.blender.viewport import ViewportRenderer, packing
-    from addon.blender.viewport.effect_rows import on_gpu
     from addon.core.effects import Grade, Reveal
-    from testing.viewport_scene import psnr
 
     bpy = bpy_empty
     assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "guitar.ply")) == {"FINISHED"}
@@ -268,21 +263,35 @@ def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, te
         reveal.progress = progress
         reveal.keyframe_insert("progress", frame=frame)
 
+    # "rest": the reveal measures the centres before displace moves them
+    _scrub(bpy, (8, 12), [Reveal, Grade], {"rest"})
+
+
+def _scrub(bpy, frames, kinds, textures):
+    """Scrub from frames[0] to frames[1] in one viewport renderer: the viewport's
+    evaluation defers `kinds`, the renderer holds `textures`, the later frame uploads
+    the centres, the order and the table alone, and draws what the whole stack evaluated
+    on the CPU draws."""
+    from addon.blender.evaluate.items import collect_items
+    from addon.blender.viewport import ViewportRenderer, packing
+    from addon.blender.viewport.effect_rows import on_gpu
+    from testing.viewport_scene import psnr
+
     def at(frame, defer):
         bpy.context.scene.frame_set(frame)
         return collect_items(bpy.context.evaluated_depsgraph_get(), defer)
 
-    first = at(8, on_gpu)
-    assert [type(d.params) for d in first[0].deferred] == [Reveal, Grade]
+    first = at(frames[0], on_gpu)
+    assert [type(d.params) for d in first[0].deferred] == kinds
     camera = framing_camera(first[0], 160, 120)
     renderer = ViewportRenderer()
     draw_offscreen(first, camera, renderer=renderer)
-    assert "rest" in renderer.gpu.textures  # the reveal measures the centres displace moves
-    later = at(12, on_gpu)
+    assert textures <= set(renderer.gpu.textures)
+    later = at(frames[1], on_gpu)
     image, _ = draw_offscreen(later, camera, renderer=renderer)
     n = packing.padded(later[0].splats.count)
     assert 16 * n <= renderer.stats.frame_bytes < (16 + 4) * n + 4096  # pos, order, table
-    whole = at(12, None)
+    whole = at(frames[1], None)
     assert not whole[0].deferred
     assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
     assert psnr(image, draw_offscreen(first, camera)[0]) < 40.0  # the frames differ
@@ -389,11 +398,7 @@ def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_r
     between them added by the effect operator, its amount keyframed: the viewport's
     evaluation defers the morph, so a scrubbed frame uploads the blended centres, the
     order and the table, and draws what the kernel's blend uploaded whole draws."""
-    from addon.blender.evaluate.items import collect_items
-    from addon.blender.viewport import ViewportRenderer, packing
-    from addon.blender.viewport.effect_rows import on_gpu
     from addon.core.effects import Morph
-    from testing.viewport_scene import psnr
 
     bpy = bpy_empty
     for name in ("guitar.ply", "guitar.ply"):
@@ -409,21 +414,4 @@ def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_r
         morph.amount = amount
         morph.keyframe_insert("amount", frame=frame)
 
-    def at(frame, defer):
-        bpy.context.scene.frame_set(frame)
-        return collect_items(bpy.context.evaluated_depsgraph_get(), defer)
-
-    first = at(6, on_gpu)
-    assert [type(d.params) for d in first[0].deferred] == [Morph]
-    camera = framing_camera(first[0], 160, 120)
-    renderer = ViewportRenderer()
-    draw_offscreen(first, camera, renderer=renderer)
-    assert {"morph_pos", "morph_shape", "morph_sh"} <= set(renderer.gpu.textures)
-    later = at(13, on_gpu)
-    image, _ = draw_offscreen(later, camera, renderer=renderer)
-    n = packing.padded(later[0].splats.count)
-    assert 16 * n <= renderer.stats.frame_bytes < (16 + 4) * n + 4096  # pos, order, table
-    whole = at(13, None)
-    assert not whole[0].deferred
-    assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
-    assert psnr(image, draw_offscreen(first, camera)[0]) < 40.0  # the frames differ
+    _scrub(bpy, (6, 13), [Morph], {"morph_pos", "morph_shape", "morph_sh"})

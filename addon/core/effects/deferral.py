@@ -31,7 +31,7 @@ COLOUR = frozenset({"opacities", "scales", "sh_dc"})
 
 @dataclass(frozen=True)
 class Deferred:
-    params: object      # a kernel's params (a colour kind's)
+    params: object      # a kernel's params (a colour kind's, or a Morph's)
     at_rest: bool       # its field is measured at the stack's input centres, not the final ones
 
 

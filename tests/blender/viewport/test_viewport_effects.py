@@ -416,3 +416,21 @@ def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_r
         morph.keyframe_insert("amount", frame=frame)
 
     _scrub(bpy, (6, 13), [Morph], {"morph_pos", "morph_shape", "morph_sh"})
+
+
+def test_rendered_shading_defers_too_and_final_renders_never(bpy_empty, testdata):
+    """The rendered viewport (the engine's view_update and view_draw) evaluates as the draw
+    handler does; the engine's final frames evaluate the whole stack."""
+    from addon.blender.evaluate.items import collect_items
+    from addon.blender.render import engine
+    from addon.core.effects import Reveal
+
+    bpy = bpy_empty
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "guitar.ply")) == {"FINISHED"}
+    with bpy.context.temp_override(object=bpy.context.active_object):
+        assert bpy.ops.splatline.effect_add(type="REVEAL") == {"FINISHED"}
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    (shaded,) = engine._viewport_items(depsgraph)
+    assert [type(d.params) for d in shaded.deferred] == [Reveal]
+    (final,) = collect_items(depsgraph)
+    assert not final.deferred and final.splats.opacities is not shaded.splats.opacities

@@ -40,3 +40,18 @@ def inverse4(m) -> np.ndarray:
         [(-a10 * c3 + a11 * c1 - a12 * c0) * r, (a00 * c3 - a01 * c1 + a02 * c0) * r,
          (-a30 * s3 + a31 * s1 - a32 * s0) * r, (a20 * s3 - a21 * s1 + a22 * s0) * r],
     ])
+
+
+def inverse_or_pinv(m) -> np.ndarray:
+    """The inverse of a 4x4 (or 3x3) transform by inverse4; the pseudo-inverse where it is
+    singular (an object or gizmo scaled to 0 on some axis), so a degenerate transform
+    never stops evaluation or drawing (what comes back then is junk the renderers cull)."""
+    a = np.asarray(m, np.float64)
+    if a.shape == (3, 3):
+        padded = np.eye(4)
+        padded[:3, :3] = a
+        return inverse_or_pinv(padded)[:3, :3]
+    try:
+        return inverse4(a)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(a)

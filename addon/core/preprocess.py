@@ -35,7 +35,7 @@ import numpy as np
 
 from . import dof, equirect
 from .camera import Camera
-from .matrix_inverse import inverse4
+from .matrix_inverse import inverse_or_pinv
 from .quaternion import to_matrix as quat_to_matrix
 from .render_constants import ALPHA_MIN, J_CLAMP_MARGIN, LOW_PASS
 from .scene import RenderItem
@@ -205,22 +205,11 @@ def camera_in_object(local_to_camera: np.ndarray) -> tuple[np.ndarray, np.ndarra
     splat's SH direction."""
     m = np.asarray(local_to_camera, np.float64)
     with np.errstate(all="ignore"):
-        inv = _inverse3(m[:3, :3])
+        inv = inverse_or_pinv(m[:3, :3])  # no LAPACK: once per object per frame
         eye = -inv @ m[:3, 3]
         forward = inv @ np.array([0.0, 0.0, -1.0])
         forward = forward / np.linalg.norm(forward)
     return eye, forward
-
-
-def _inverse3(a: np.ndarray) -> np.ndarray:
-    """inv(a) for a 3x3 matrix by matrix_inverse (no LAPACK: once per object per frame),
-    pinv where it is singular."""
-    m = np.eye(4)
-    m[:3, :3] = a
-    try:
-        return inverse4(m)[:3, :3]
-    except np.linalg.LinAlgError:
-        return np.linalg.pinv(a)
 
 
 def split_float(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

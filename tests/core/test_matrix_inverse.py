@@ -40,3 +40,15 @@ def test_a_value_that_is_not_finite_gives_what_numpy_gives(value):
 def test_inverse4_takes_only_4x4():
     with pytest.raises(ValueError, match="4x4"):
         inverse4(np.eye(3))
+
+
+def test_inverse_or_pinv_of_a_3x3_is_its_inverse_or_pseudo_inverse():
+    """The object-to-camera rotation part (preprocess.camera_in_object) goes through the
+    same fallback as gizmo frames: inverse4 of the padded matrix, pinv where singular."""
+    from addon.core.matrix_inverse import inverse_or_pinv
+
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(3, 3))
+    np.testing.assert_allclose(inverse_or_pinv(a), np.linalg.inv(a), rtol=1e-12, atol=1e-12)
+    flat = np.diag([2.0, 0.0, 4.0])  # an object scaled to 0 on an axis
+    np.testing.assert_allclose(inverse_or_pinv(flat), np.linalg.pinv(flat), atol=1e-15)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..matrix_inverse import inverse4
+from ..matrix_inverse import inverse_or_pinv
 
 F32 = np.float32
 
@@ -38,14 +38,7 @@ def is_identity(m: np.ndarray) -> bool:
     return bool(np.array_equal(m, np.eye(4)))
 
 
-def inverse(m: np.ndarray) -> np.ndarray:
-    """Inverse of a 4x4 transform; the pseudo-inverse when it is singular (an Empty or
-    object scaled to 0 on some axis), so a degenerate frame never stops evaluation."""
-    m = np.asarray(m, np.float64)
-    try:
-        return inverse4(m)  # not np.linalg.inv: see matrix_inverse
-    except np.linalg.LinAlgError:
-        return np.linalg.pinv(m)
+inverse = inverse_or_pinv  # a gizmo frame's inverse (not np.linalg.inv: see matrix_inverse)
 
 
 def local_columns(positions: np.ndarray, frame: np.ndarray, axes=(0, 1, 2)) -> list[np.ndarray]:

@@ -1,4 +1,4 @@
-// Offscreen renderer, film pass: the composited tile in the terms of Blender's render
+// Offscreen renderer, film pass (needs splat_math.glsl before it): the composited tile in the terms of Blender's render
 // result (core/scene.py Film; blender/render/film.result_rect is the reference): the
 // display background behind the splats (gl/frame.behind), the straight colour decoded
 // from sRGB to scene-linear and premultiplied again, the world under it, rows bottom-up.
@@ -12,20 +12,11 @@ uniform int u_rows;          // the tile's height
 
 out vec4 film;
 
-const float SL_SRGB_A = 0.055;
-const float SL_SRGB_KNEE = 0.04045;  // twins of core/colorspace.py
-
-vec3 srgb_decode(vec3 x)
-{
-    vec3 high = pow((x + SL_SRGB_A) * (1.0 / (1.0 + SL_SRGB_A)), vec3(2.4));
-    return mix(x * (1.0 / 12.92), high, greaterThan(x, vec3(SL_SRGB_KNEE)));
-}
-
 void main()
 {
     ivec2 p = ivec2(gl_FragCoord.xy);
     vec4 c = texelFetch(u_colour, ivec2(p.x, u_rows - 1 - p.y), 0);
     c += (1.0 - c.a) * u_background;
-    vec3 linear = c.a > 0.0 ? srgb_decode(c.rgb / c.a) * c.a : vec3(0.0);
+    vec3 linear = c.a > 0.0 ? sl_srgb_decode(c.rgb / c.a) * c.a : vec3(0.0);
     film = u_over ? vec4(linear + (1.0 - c.a) * u_under, 1.0) : vec4(linear, c.a);
 }

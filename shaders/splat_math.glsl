@@ -262,3 +262,14 @@ float sl_alpha(vec2 d, vec3 conic, float opacity)
     float power = conic.x * d.x * d.x + 2.0 * conic.y * d.x * d.y + conic.z * d.y * d.y;
     return min(SL_ALPHA_MAX, opacity * exp(-0.5 * max(power, 0.0)));
 }
+
+const float SL_SRGB_A = 0.055;
+const float SL_SRGB_KNEE = 0.04045;  // twins of core/colorspace.py
+
+// display sRGB to scene-linear: colorspace.srgb_to_linear's float32 steps, in its order
+// (the knee exclusive), so the two differ only by the power's rounding
+vec3 sl_srgb_decode(vec3 x)
+{
+    vec3 high = pow((x + SL_SRGB_A) * (1.0 / (1.0 + SL_SRGB_A)), vec3(2.4));
+    return mix(x * (1.0 / 12.92), high, greaterThan(x, vec3(SL_SRGB_KNEE)));
+}

@@ -124,13 +124,6 @@ void morph_splat(int splat, float t, inout float opacity, inout vec3 scale, inou
     q = morph_slerp(q, other_q, other.x, t);
 }
 
-vec3 srgb_to_linear(vec3 c)
-{
-    vec3 lo = c / 12.92;
-    vec3 hi = pow((c + 0.055) / 1.055, vec3(2.4));
-    return mix(lo, hi, step(vec3(0.04045), c));
-}
-
 void main()
 {
     rec_pos = vec4(0.0);
@@ -190,7 +183,7 @@ void main()
     vec3 rgb = sh_colour(splat, dir, degree, dc, sh_only, effects.w);
     rgb = sl_grade_color(rgb, mat3(c0.x, c1.x, c2.x, c0.y, c1.y, c2.y, c0.z, c1.z, c2.z),
                          vec3(c0.w, c1.w, c2.w));
-    if (flags.w != 0) rgb = srgb_to_linear(rgb);
+    if (flags.w != 0) rgb = sl_srgb_decode(rgb);
 
     float z_clip = proj_z.x * t.z + proj_z.y, w_clip = proj_z.z * t.z + proj_z.w;
     rec_pos = vec4(centre, clamp(z_clip / w_clip, -1.0, 1.0), radius);

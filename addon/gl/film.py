@@ -21,7 +21,7 @@ class FilmPass:
         self.ctx = ctx
         self.program = ctx.program(
             vertex_shader=shaders.source("gl_fullscreen.vert", math=False, records=records),
-            fragment_shader=shaders.source("gl_film.frag", math=False, records=records))
+            fragment_shader=shaders.source("gl_film.frag", records=records))
         self.vao = ctx.vertex_array(self.program, [])
         self.targets: dict = {}  # (w, h) -> (texture, framebuffer)
 

@@ -167,3 +167,32 @@ def test_sh_only_is_the_higher_bands_over_grey(gpu_ready, capture):
         np.testing.assert_array_equal(want, 0.5)
     else:  # the bands vary with the view and the colour lost its base
         assert np.ptp(want) > 0.2 and not np.allclose(want, p.rgb, atol=0.05)
+
+
+def test_linear_output_decodes_each_splat_colour_as_colorspace_does(gpu_ready):
+    """DrawSettings.linear_output converts each splat's colour before blending
+    (splat_math's sl_srgb_decode): where one splat alone covers a pixel, the drawn
+    straight colour is colorspace.srgb_to_linear of the sRGB drawing's, both sides of the
+    knee and above 1."""
+    from addon.blender.viewport import DrawSettings
+    from addon.core.camera import look_at, simple_camera
+    from addon.core.colorspace import srgb_to_linear
+    from addon.core.sh import C0
+    from addon.core.splats import SplatSet
+
+    colours = np.array([[0.01, 0.03, 0.0404], [0.0405, 0.2, 0.5], [0.9, 1.0, 1.3]], np.float32)
+    s = SplatSet.allocate(3, 0)
+    s.positions[:] = [[-1.5, 0.0, 0.0], [0.0, 0.0, 0.0], [1.5, 0.0, 0.0]]
+    s.scales[:] = 0.3
+    s.rotations[:] = (1.0, 0.0, 0.0, 0.0)
+    s.opacities[:] = 0.98
+    s.sh_dc[:] = (colours - 0.5) / C0
+    camera = simple_camera(96, 48, 60.0, look_at((0.0, -4.0, 0.0), (0.0, 0.0, 0.0)), near=0.1, far=20.0)
+    items = [RenderItem(s)]
+    srgb, _ = draw_offscreen(items, camera, settings=DrawSettings(linear_output=False))
+    linear, _ = draw_offscreen(items, camera, settings=DrawSettings(linear_output=True))
+    for x in (16, 48, 80):  # each splat's centre column
+        row = int(np.argmax(srgb[:, x, 3]))
+        a, b = srgb[row, x], linear[row, x]
+        assert a[3] > 0.9 and a[3] == b[3]
+        np.testing.assert_allclose(b[:3] / b[3], srgb_to_linear(a[:3] / a[3]), rtol=2e-6, atol=1e-7)

@@ -28,8 +28,9 @@ class RenderItem:
     base_fields    the SplatSet fields that are that data's own arrays, untouched: under an
                    equal base_key the very same array holds the same values, so a renderer
                    may keep what it uploaded of them while `key` changes with the effects
-    deferred       colour effects left out of `splats` for the renderer to apply itself
-                   (effects.deferral.Deferred, in order); only the viewport asks for them
+    deferred       colour effects and a last morph left out of `splats` for the renderer to
+                   apply itself (effects.deferral.Deferred, in order; a morph's centres are
+                   blended in `splats` already); only the viewport asks for them
     rest_positions the effects' input centres, which an `at_rest` deferred effect measures
     """
 

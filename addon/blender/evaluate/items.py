@@ -167,8 +167,9 @@ def item_for(obj_eval, depsgraph=None, defer=None) -> RenderItem:
     key: (name, base key) while the splats are the base data itself; with crop or effects,
     (name, base key, crop, effect signatures incl. time for time-driven effects), so equal
     keys mean equal splats and a renderer's per-key upload cache never shows a stale frame.
-    defer(params) -> bool: the caller applies such colour effects itself where the stack
-    allows it (core.effects.deferral); they are then on item.deferred, not in its splats.
+    defer(params) -> bool: the caller applies such effects (colour effects, a last morph)
+    itself where the stack allows it (core.effects.deferral); they are then on
+    item.deferred, not in its splats (but for a deferred morph's blended centres).
     """
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     world = np.array(obj_eval.matrix_world, np.float64)

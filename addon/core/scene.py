@@ -25,12 +25,14 @@ class RenderItem:
     positions_key  equal non-None keys mean bitwise-equal positions (a renderer may keep its
                    depth sort); None = unknown. Colour/opacity-only changes keep it.
     base_key       the version of the data before effects and crop; None = unknown
-    base_fields    the SplatSet fields that are that data's own arrays, untouched: under an
-                   equal base_key the very same array holds the same values, so a renderer
-                   may keep what it uploaded of them while `key` changes with the effects
+    base_fields    the SplatSet fields that are that data's own arrays, untouched, or
+                   read-only arrays (a deferred morph's ends): under an equal base_key the
+                   very same array holds the same values, so a renderer may keep what it
+                   uploaded of them while `key` changes with the effects
     deferred       colour effects and a last morph left out of `splats` for the renderer to
-                   apply itself (effects.deferral.Deferred, in order; a morph's centres are
-                   blended in `splats` already); only the viewport asks for them
+                   apply itself (effects.deferral.Deferred, in order; a morph's ends are
+                   `splats` and its target, in order, with the centres blended in `splats`
+                   already); only the viewport asks for them
     rest_positions the effects' input centres, which an `at_rest` deferred effect measures
     """
 

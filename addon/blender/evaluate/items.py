@@ -191,7 +191,7 @@ def item_for(obj_eval, depsgraph=None, defer=None) -> RenderItem:
     on_cpu, deferred = split_stack(effects.params, defer) if defer else (effects.params, ())
     result = evaluate_stack(splats, on_cpu, time)
     if deferred:
-        drawn = drawn_splats(result.splats, deferred)
+        drawn, deferred = drawn_splats(result.splats, deferred)
         result = StackResult(drawn, drawn.positions is not splats.positions)
     key = (name, base_key)
     if result.splats is not base or deferred:
@@ -202,8 +202,15 @@ def item_for(obj_eval, depsgraph=None, defer=None) -> RenderItem:
         opacity_scale=float(look.opacity) if look.visible else 0.0, sh_degree=int(look.max_sh_degree),
         color_matrix=_color_matrix(look),
         key=key, positions_key=positions_key, base_key=(name, base_key),
-        base_fields=frozenset(f for f in SPLAT_FIELDS if getattr(result.splats, f) is getattr(base, f)),
+        base_fields=frozenset(f for f in SPLAT_FIELDS if _kept(getattr(result.splats, f), getattr(base, f))),
         deferred=deferred, rest_positions=splats.positions if deferred else None)
+
+
+def _kept(array: np.ndarray, base_array: np.ndarray) -> bool:
+    """Whether a field's array holds the same values for as long as it lives: the base's
+    own, or a read-only one (a deferred morph's memoized ends, core.effects.morph.aligned),
+    which a renderer may keep what it uploaded of while the array is the same."""
+    return array is base_array or not array.flags.writeable
 
 
 def _color_matrix(look):

@@ -45,9 +45,10 @@ def _finite(*values) -> bool:
 
 def on_gpu(params) -> bool:
     """Whether the preprocess pass can apply this effect: reveal and grade (by height,
-    distance or noise), and a morph paired in order. Amount and shrink within [0, 1] (the
-    panel's ranges) keep the base scales an upper bound of what a colour effect draws,
-    which the sort's culling radius relies on."""
+    distance or noise), and a morph of any pairing (deferral.drawn_splats hands over its
+    ends in order). Amount and shrink within [0, 1] (the panel's ranges) keep the base
+    scales an upper bound of what a colour effect draws, which the sort's culling radius
+    relies on."""
     if not (getattr(params, "active", False) and 0.0 < params.amount <= 1.0):
         return False
     if not _finite(np.asarray(params.frame, np.float64)):
@@ -59,10 +60,8 @@ def on_gpu(params) -> bool:
         return (params.field in _GRADE_FIELDS and params.mode in MODES
                 and 1 <= len(params.stops) <= MAX_STOPS and _finite(params.low, params.high)
                 and all(_finite(x, *rgb) for x, rgb in params.stops))
-    if type(params) is Morph:  # pairs in order: splat i blends with the target's splat i
-        pairing = params.pairing
-        return (params.amount < 1.0 and params.target is not None and pairing is not None
-                and pairing.in_order and len(pairing.source) == params.target.count)
+    if type(params) is Morph:  # any pairing: the renderer is handed its ends in order
+        return params.amount < 1.0 and params.target is not None
     return False
 
 

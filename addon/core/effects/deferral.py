@@ -8,9 +8,9 @@ what it writes and its field is measured at the same centres:
   kind.EffectKind.writes), or is itself deferred, in order;
 - its field's centres are the stack's input (no mover before it, `at_rest`) or the final
   ones (no mover after it). Whether a field kind can be deferred is `on_gpu`'s to say.
-A morph is deferred when everything after it is: the renderer blends the CPU part's
-splats with the target itself, except the centres, which the CPU blends (`drawn_splats`:
-the renderer sorts by them), exactly as the kernel does.
+A morph is deferred when everything after it is: the renderer blends its two ends in order
+(morph.aligned, gathered once for any pairing), except the centres, which the CPU blends
+(`drawn_splats`: the renderer sorts by them), exactly as the kernel does.
 
 `split_stack` decides; `apply_deferred` is the readable CPU meaning of the result, which
 tests pin to evaluate_stack bit for bit.
@@ -22,7 +22,7 @@ from typing import Callable
 
 from ..splats import SplatSet
 from . import registry
-from .morph import Morph, morph_positions
+from .morph import Morph, aligned, morph_positions, pairing_for
 from .stack import apply_effect
 
 GEOMETRY = frozenset({"positions", "rotations"})
@@ -58,14 +58,20 @@ def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, 
     return list(effects[:cut]) + kept_after[::-1], tuple(deferred[::-1])
 
 
-def drawn_splats(splats: SplatSet, deferred: tuple) -> SplatSet:
-    """What the renderer is handed for the CPU part's splats: with a deferred morph (the
-    first deferred effect, paired in order), the centres blended as the kernel blends
-    them; every other field the CPU part's own."""
-    if deferred and type(deferred[0].params) is Morph:
-        p = deferred[0].params
-        return replace(splats, positions=morph_positions(splats.positions, p.target.positions, p.amount))
-    return splats
+def drawn_splats(splats: SplatSet, deferred: tuple) -> tuple[SplatSet, tuple]:
+    """What the renderer is handed: the CPU part's splats and the deferred effects. With a
+    deferred morph (the first deferred effect) both become its ends (morph.aligned), paired
+    in order: the source end with the centres blended as the kernel blends them (the
+    renderer sorts by them), and the morph's target the target end. Otherwise the CPU
+    part's splats and the deferred effects as they are."""
+    if not deferred or type(deferred[0].params) is not Morph:
+        return splats, deferred
+    p = deferred[0].params
+    ends = aligned(splats, p.target, pairing_for(splats, p))
+    drawn = replace(ends.source, positions=morph_positions(ends.source.positions,
+                                                           ends.target.positions, p.amount))
+    morph = replace(deferred[0], params=replace(p, target=ends.target, pairing=ends.pairing))
+    return drawn, (morph,) + deferred[1:]
 
 
 def apply_deferred(splats: SplatSet, rest, deferred: tuple, time: float) -> SplatSet:

@@ -6,7 +6,7 @@ spatial-sort pairing: both sets are ordered along a 30-bit Morton curve over the
 bounding box, and the k-th splat of the smaller set pairs with the splat at rank
 floor((k + 0.5) * n_large / n_small) of the larger. Splats of the larger set left without a
 partner fade: unpaired source splats fade out, unpaired target splats fade in, each in
-place. At amount 0 the result is the source itself, at amount 1 the target itself.
+place. The output is in the larger set's order (`aligned`). At amount 0 the result is the source itself, at amount 1 the target itself.
 Position, scale, opacity and SH are blended linearly, rotation by slerp (shortest arc).
 """
 from __future__ import annotations
@@ -201,43 +201,93 @@ class SlerpCache:
 SLERPS = SlerpCache()
 
 
-def _pad_rest(rest: np.ndarray, k: int) -> np.ndarray:
-    if rest.shape[1] == k:
-        return rest
-    out = np.zeros((rest.shape[0], k, 3), F32)
-    out[:, :rest.shape[1]] = rest
+@dataclass(frozen=True)
+class Ends:
+    """A morph's two ends splat for splat: output splat i blends source[i] into target[i]."""
+    source: SplatSet
+    target: SplatSet
+    pairing: Pairing   # of the ends themselves: in order
+
+
+def aligned(source: SplatSet, target: SplatSet, pairing: Pairing) -> Ends:
+    """The morph's two ends in the larger set's order (the source's on a tie), both at the
+    higher SH degree (the lower zero-padded): each splat of the smaller set sits at its
+    partner's index, and a splat without a partner has itself, transparent, as its other
+    end, so it fades out (a source splat) or in (a target splat) in place. Blending the ends
+    in order is the morph; a renderer handed them blends in order too. Memoized by the arrays
+    (ALIGNED): scrubbing gathers them once. Keeping the larger set's order keeps a source of
+    at least the target's count in its own order, so noise fields after the morph stay on
+    its splats (stack.py)."""
+    arrays = tuple(getattr(s, f) for s in (source, target) for f in ARRAYS)
+    arrays += (pairing.source, pairing.target, pairing.source_only, pairing.target_only)
+    new_a, new_b, in_order = ALIGNED.get(arrays, (), lambda: _align(source, target, pairing))
+    return Ends(replace(source, **new_a), replace(target, axes=source.axes, **new_b), in_order)
+
+
+def _align(source: SplatSet, target: SplatSet, pairing: Pairing) -> tuple:
+    """aligned's new arrays only ({field: array} for each end, the ends' pairing): a memo
+    value that held its inputs' arrays would keep its own weak keys alive."""
+    k = sh_coeff_count(max(source.sh_degree, target.sh_degree))
+    count = source.count if pairing.in_order else max(source.count, target.count)
+    if pairing.in_order:
+        new_a, new_b = _padded(source, k), _padded(target, k)
+    elif source.count >= target.count:
+        new_a = _padded(source, k)
+        new_b = _placed(count, k, ((target, pairing.target, pairing.source, False),
+                                   (source, pairing.source_only, pairing.source_only, True)))
+    else:
+        new_a = _placed(count, k, ((source, pairing.source, pairing.target, False),
+                                   (target, pairing.target_only, pairing.target_only, True)))
+        new_b = _padded(target, k)
+    every = np.arange(count)
+    for array in (*new_a.values(), *new_b.values(), every):
+        array.flags.writeable = False
+    return new_a, new_b, Pairing(every, every, every[:0], every[:0], in_order=True)
+
+
+def _padded(s: SplatSet, k: int) -> dict:
+    if s.sh_rest.shape[1] == k:
+        return {}
+    rest = np.zeros((s.count, k, 3), F32)
+    rest[:, :s.sh_rest.shape[1]] = s.sh_rest
+    return {"sh_rest": rest}
+
+
+def _placed(count: int, k: int, parts) -> dict:
+    """count new splats' arrays, filled by parts (set, its rows, the rows they go to, whether
+    they go transparent): between them the parts cover every row."""
+    out = {"positions": np.empty((count, 3), F32), "scales": np.empty((count, 3), F32),
+           "rotations": np.empty((count, 4), F32), "opacities": np.empty(count, F32),
+           "sh_dc": np.empty((count, 3), F32), "sh_rest": np.zeros((count, k, 3), F32)}
+    for s, rows, to, transparent in parts:
+        for f in ("positions", "scales", "rotations", "opacities", "sh_dc"):
+            out[f][to] = getattr(s, f)[rows]
+        out["sh_rest"][to, :s.sh_rest.shape[1]] = s.sh_rest[rows]
+        if transparent:
+            out["opacities"][to] = 0.0
     return out
 
 
-def _take(s: SplatSet, index: np.ndarray, in_order: bool = False) -> SplatSet:
-    """s.subset(index), or s itself when index is every splat in order (no copy; in_order
-    says so without comparing a million indices every frame)."""
-    if in_order and len(index) == s.count:
-        return s
-    if len(index) == s.count and (s.count == 0 or (index[0] == 0 and index[-1] == s.count - 1
-                                                     and np.array_equal(index, np.arange(s.count)))):
-        return s
-    return s.subset(index)
+ALIGNED = ArrayMemo(2)
 
 
 def blend(source: SplatSet, target: SplatSet, pairing: Pairing, t: float) -> SplatSet:
-    k = sh_coeff_count(max(source.sh_degree, target.sh_degree))
-    a = _take(source, pairing.source, pairing.in_order)
-    b = _take(target, pairing.target, pairing.in_order)
-    parts = [SplatSet(
+    """Every splat blended from its source end to its target end (aligned)."""
+    ends = aligned(source, target, pairing)
+    a, b = ends.source, ends.target
+    return SplatSet(
         positions=_lerp(a.positions, b.positions, t), scales=_lerp(a.scales, b.scales, t),
-        rotations=slerp(a.rotations, b.rotations, t),
-        opacities=_lerp(a.opacities, b.opacities, t), sh_dc=_lerp(a.sh_dc, b.sh_dc, t),
-        sh_rest=_lerp(_pad_rest(a.sh_rest, k), _pad_rest(b.sh_rest, k), t), axes=source.axes)]
-    for s, idx, keep in ((source, pairing.source_only, 1.0 - t), (target, pairing.target_only, t)):
-        if len(idx):
-            lone = s.subset(idx)
-            parts.append(replace(lone, opacities=lone.opacities * F32(keep),
-                                 sh_rest=_pad_rest(lone.sh_rest, k), axes=source.axes))
-    if len(parts) == 1:
-        return parts[0]
-    return SplatSet(*(np.concatenate([getattr(p, f) for p in parts]) for f in ARRAYS),
-                    axes=source.axes)
+        rotations=slerp(a.rotations, b.rotations, t), opacities=_lerp(a.opacities, b.opacities, t),
+        sh_dc=_lerp(a.sh_dc, b.sh_dc, t), sh_rest=_lerp(a.sh_rest, b.sh_rest, t), axes=source.axes)
+
+
+def pairing_for(splats: SplatSet, p: Morph) -> Pairing:
+    """p's pairing where it pairs these splats with p's target, else theirs made now."""
+    pairing = p.pairing
+    if (pairing is None or len(pairing.source) + len(pairing.source_only) != splats.count
+            or len(pairing.target) + len(pairing.target_only) != p.target.count):
+        pairing = pair(splats.positions, p.target.positions)
+    return pairing
 
 
 def apply(splats: SplatSet, p: Morph, time: float = 0.0, rest=None) -> SplatSet:
@@ -245,11 +295,7 @@ def apply(splats: SplatSet, p: Morph, time: float = 0.0, rest=None) -> SplatSet:
         return splats
     if p.amount >= 1.0:
         return replace(p.target, axes=splats.axes)
-    pairing = p.pairing
-    if (pairing is None or len(pairing.source) + len(pairing.source_only) != splats.count
-            or len(pairing.target) + len(pairing.target_only) != p.target.count):
-        pairing = pair(splats.positions, p.target.positions)
-    return blend(splats, p.target, pairing, p.amount)
+    return blend(splats, p.target, pairing_for(splats, p), p.amount)
 
 
 class MorphCache:

@@ -325,15 +325,18 @@ def _morph_scene(splats, t):
     return Morph(target=other, pairing=pair(splats.positions, other.positions), amount=t)
 
 
-@pytest.mark.parametrize("scene", ("guitar", "degree 3"))
+@pytest.mark.parametrize("scene", ("guitar", "degree 3", "guitar to a third", "a third to guitar"))
 @pytest.mark.parametrize("t, then_grade", ((0.2, False), (0.5, True), (0.85, False)))
 def test_a_deferred_morph_draws_the_kernels_records(gpu_ready, capture, testdata, scene, t, then_grade):
     """A morph blended in the preprocess pass against the kernel's blend uploaded whole:
-    guitar (degree 0) with its axes, and a degree-3 set (test64.ply and generated splats)
-    for the SH bands. The bar adds the rotations' rounding to the colour effects' bars."""
+    guitar (degree 0) with its axes, a degree-3 set (test64.ply and generated splats) for
+    the SH bands, and guitar into a third of its turned self and back (paired along the
+    Morton curve: handed over as its ends, the lone splats fading). The bar adds the
+    rotations' rounding to the colour effects' bars."""
     from addon.blender.viewport.effect_rows import on_gpu
     from addon.core.effects import Grade
     from addon.core.effects.deferral import drawn_splats
+    from addon.core.effects.morph import aligned
     from testing.synth import random_splats
 
     splats, world, camera = capture
@@ -345,18 +348,32 @@ def test_a_deferred_morph_draws_the_kernels_records(gpu_ready, capture, testdata
         camera = framing_camera(item, 160, 120)
         world = np.eye(4)
     morph = _morph_scene(splats, t)
+    if scene == "guitar to a third":
+        morph = _morph_to(splats, morph.target.subset(np.arange(0, splats.count, 3)), t)
+    elif scene == "a third to guitar":
+        splats = splats.subset(np.arange(1, splats.count, 3))
+        morph = _morph_to(splats, morph.target, t)
     stack = [morph] + ([Grade(low=-1.0, high=1.0, frame=np.eye(4))] if then_grade else [])
     on_cpu, deferred = split_stack(stack, on_gpu)
     assert on_cpu == [] and [type(d.params) for d in deferred][0] is type(morph)
     cpu = evaluate_stack(splats, stack, 0.0).splats
-    drawn = drawn_splats(evaluate_stack(splats, on_cpu, 0.0).splats, deferred)
-    items = [RenderItem(cpu, world, key=("cpu",)), RenderItem(drawn, world, key=("gpu",), deferred=deferred)]
+    drawn, handed = drawn_splats(evaluate_stack(splats, on_cpu, 0.0).splats, deferred)
+    items = [RenderItem(cpu, world, key=("cpu",)), RenderItem(drawn, world, key=("gpu",), deferred=handed)]
     order, rec = records(items, camera)
-    want, got = _by_splat(order, rec, splats.count)
-    assert len(want) > 0.3 * splats.count and set(want) <= set(got)
+    want, got = _by_splat(order, rec, cpu.count)
+    assert len(want) > 0.3 * cpu.count and set(want) <= set(got)
     index = np.array(sorted(want), np.int64)
     w, g = np.stack([want[i] for i in index]), np.stack([got[i] for i in index])
-    _check_morph(w, g, index, splats, morph.target, cpu)
+    ends = aligned(splats, morph.target, morph.pairing)
+    _check_morph(w, g, index, ends.source, ends.target, cpu)
+
+
+def _morph_to(splats, target, t):
+    from addon.core.effects import Morph, pair
+
+    pairing = pair(splats.positions, target.positions)
+    assert not pairing.in_order
+    return Morph(target=target, pairing=pairing, amount=t)
 
 
 def concatenated(a, b):
@@ -406,6 +423,35 @@ def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_r
         assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / name)) == {"FINISHED"}
     source, target = sorted((o for o in bpy.data.objects if o.type == "POINTCLOUD"), key=lambda o: o.name)
     target.location, target.rotation_euler = (0.4, 0.0, 0.3), (1.2, 0.0, 0.5)
+    target.splatline.look.visible = False
+    with bpy.context.temp_override(object=source):
+        assert bpy.ops.splatline.effect_add(type="MORPH") == {"FINISHED"}
+    morph = source.splatline.effects[0]
+    morph.target = target
+    for frame, amount in ((1, 0.0), (20, 1.0)):
+        morph.amount = amount
+        morph.keyframe_insert("amount", frame=frame)
+
+    _scrub(bpy, (6, 13), [Morph], {"morph_pos", "morph_shape", "morph_sh"})
+
+
+@pytest.mark.parametrize("source_name, target_name", (("guitar.ply", "test64.ply"),
+                                                       ("test64.ply", "guitar.ply")))
+def test_scrubbing_a_morph_between_captures_of_other_sizes(bpy_empty, gpu_ready, testdata,
+                                                          source_name, target_name):
+    """Two captures of different sizes (90,854 and 64 splats), imported by the import
+    operator, morphed either way by the effect operator: the viewport defers the morph as
+    its ends gathered once (morph.aligned), so a scrubbed frame uploads the centres, the
+    order and the table alone, and draws what the kernel's blend uploaded whole draws."""
+    from addon.core.effects import Morph
+
+    bpy = bpy_empty
+    for name in (source_name, target_name):
+        assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / name)) == {"FINISHED"}
+    source, target = (next(o for o in bpy.data.objects if o.name == name.split(".")[0])
+                      for name in (source_name, target_name))
+    assert len(source.data.points) != len(target.data.points)
+    target.location, target.rotation_euler = (0.2, 0.0, 0.1), (0.3, 0.0, 0.5)
     target.splatline.look.visible = False
     with bpy.context.temp_override(object=source):
         assert bpy.ops.splatline.effect_add(type="MORPH") == {"FINISHED"}

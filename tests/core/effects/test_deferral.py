@@ -11,6 +11,7 @@ import pytest
 from addon.core.effects import (KINDS, Displace, Explode, Grade, Morph, Reveal, Twist, apply_effect,
                                 evaluate_stack, pair)
 from addon.core.effects.deferral import Deferred, apply_deferred, drawn_splats, split_stack
+from addon.core.effects.morph import aligned
 from addon.core.formats import read
 from testing.effect_cases import gizmo, grades, reveals
 
@@ -18,10 +19,9 @@ FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
 
 
 def not_noise(p) -> bool:
-    """A renderer that applies colour effects by height or distance and a morph paired in
-    order, as the viewport does."""
+    """A renderer that applies colour effects by height or distance and any morph."""
     if type(p) is Morph:
-        return p.pairing.in_order
+        return True
     return "NOISE" not in (getattr(p, "shape", None), getattr(p, "field", None))
 
 
@@ -81,12 +81,14 @@ def _morph_splits(capture):
         # a CPU effect after it reads the morph's output
         ((morph, DISPLACE), (morph, DISPLACE), ()),
         ((morph, DISPLACE, GRADE), (morph, DISPLACE), ((GRADE, False),)),
-        # paired along the Morton curve: the renderer does not take it
-        ((uneven, GRADE), (uneven,), ((GRADE, False),)),
+        # paired along the Morton curve: handed over as its ends, in order
+        ((uneven, GRADE), (), ((uneven, False), (GRADE, False))),
+        ((REVEAL, uneven), (REVEAL,), ((uneven, False),)),
+        ((uneven, DISPLACE, GRADE), (uneven, DISPLACE), ((GRADE, False),)),
     )
 
 
-@pytest.mark.parametrize("case", range(6))
+@pytest.mark.parametrize("case", range(8))
 def test_a_deferred_morph_is_the_stack_too(capture, case):
     stack, cpu, deferred = _morph_splits(capture)[case]
     test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred)
@@ -104,13 +106,34 @@ def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, d
     for f in FIELDS:
         a, b = getattr(got, f), getattr(want, f)
         np.testing.assert_array_equal(a.view(np.uint32), b.view(np.uint32), err_msg=f)
-    drawn = drawn_splats(part, got_deferred)
+    drawn, handed = drawn_splats(part, got_deferred)
     np.testing.assert_array_equal(drawn.positions.view(np.uint32), want.positions.view(np.uint32))
-    for f in set(FIELDS) - {"positions"}:
-        assert getattr(drawn, f) is getattr(part, f), f
+    assert handed[1:] == got_deferred[1:] and len(handed) == len(got_deferred)
+    if got_deferred and type(got_deferred[0].params) is Morph:
+        _check_handed_morph(part, capture.positions, got_deferred[0].params, drawn, handed, want)
+    else:
+        assert handed == got_deferred
+        for f in set(FIELDS) - {"positions"}:
+            assert getattr(drawn, f) is getattr(part, f), f
     if deferred and not any(type(p) in (Reveal, Grade, Morph) for p in cpu):
         for f in ("scales", "sh_dc"):  # the colour the renderer re-uploads was left alone
             assert getattr(part, f) is getattr(capture, f), f
+
+
+def _check_handed_morph(part, rest, p, drawn, handed, want):
+    """A renderer handed a morph draws its ends blended in order, then the deferred effects
+    after it: bit for bit the stack. Paired in order, the ends are the sets themselves."""
+    q = handed[0].params
+    assert q.amount == p.amount and q.pairing.in_order and q.target.count == drawn.count
+    source_end = aligned(part, p.target, p.pairing).source
+    for f in set(FIELDS) - {"positions"}:
+        assert getattr(drawn, f) is getattr(source_end, f), f
+        if p.pairing.in_order:
+            assert getattr(drawn, f) is getattr(part, f) and getattr(q.target, f) is getattr(p.target, f)
+    got = apply_deferred(replace(drawn, positions=source_end.positions), rest, handed, 1.3)
+    for f in FIELDS:
+        np.testing.assert_array_equal(getattr(got, f).view(np.uint32), getattr(want, f).view(np.uint32),
+                                      err_msg=f)
 
 
 def test_nothing_is_deferred_without_a_taker(capture):

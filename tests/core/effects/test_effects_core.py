@@ -216,13 +216,20 @@ def test_morph_unequal_counts_pairs_spatially_and_fades_the_rest():
     gap = np.abs(src.positions[pairing.source, 0] - tgt.positions[pairing.target, 0])
     assert gap.max() <= 5.0
     out = evaluate_stack(src, [Morph(target=tgt, amount=0.25)], 0.0).splats
+    # in the larger set's order: each source splat where it was, the lone ones fading in place
     assert out.count == 4
-    np.testing.assert_allclose(np.sort(out.opacities[2:]), [0.6, 0.6], atol=1e-6)  # 0.8 * 0.75
-    # the reverse direction: unpaired target splats fade in
+    lone = pairing.source_only
+    np.testing.assert_allclose(out.opacities[lone], [0.6, 0.6], atol=1e-6)  # 0.8 * 0.75
+    np.testing.assert_array_equal(out.positions[lone], src.positions[lone])
+    np.testing.assert_allclose(out.positions[pairing.source],
+                               0.75 * src.positions[pairing.source] + 0.25 * tgt.positions[pairing.target],
+                               atol=1e-6)
+    # the reverse direction: unpaired target splats fade in, in the target's order
     back = pair(tgt.positions, src.positions)
     assert len(back.target_only) == 2 and len(back.source_only) == 0
     rev = evaluate_stack(tgt, [Morph(target=src, amount=0.25)], 0.0).splats
-    np.testing.assert_allclose(rev.opacities[2:], 0.2, atol=1e-6)  # 0.8 * 0.25
+    np.testing.assert_allclose(rev.opacities[back.target_only], 0.2, atol=1e-6)  # 0.8 * 0.25
+    np.testing.assert_array_equal(rev.positions[back.target_only], src.positions[back.target_only])
 
 
 def test_stack_is_pure_and_never_writes_its_input():

@@ -14,7 +14,17 @@ import signal
 import sys
 import threading
 
-import numpy as np
+# OpenBLAS starts a thread per core as numpy loads, and idle ones spin a while before they
+# sleep: 0.07 s of system CPU at start here, and more after every product. Only convert's
+# SOG k-means (core/quantize.py) has products worth sharing out (on one thread: +9% wall
+# time, -30% CPU on 300k splats); the other commands' paths make none (render's frames
+# took the same time either way). So they run with one, unless the user set it; set before
+# numpy's first import, which is this process's own only when numpy is not loaded yet.
+BLAS_COMMANDS = frozenset({"convert"})
+if "numpy" not in sys.modules and sys.argv[1:2] and sys.argv[1] not in BLAS_COMMANDS:
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402 (after the thread count)
 
 from .cli import UsageError, UserError
 from .core import budget

@@ -13,7 +13,7 @@ from ...core.effects.morph import Morph
 from ...core.scene import RenderItem
 from . import packing
 from .effect_rows import is_noise, morph_of
-from .pack_cache import reads_rest
+from .pack_cache import joined, reads_rest, upload_if_new
 
 
 class EffectTextures:
@@ -32,14 +32,10 @@ class EffectTextures:
         self.tokens.pop(name, None)
 
     def _put(self, gpu, name: str, got: list, flat) -> float:
-        """Upload texture `name` unless `got` (packs.get results) is what it holds;
-        flat() makes its texels. Returns the seconds spent."""
-        token = tuple(ident for ident, _ in got)
-        if self.tokens.get(name) == token:
-            return 0.0
+        """upload_if_new, counted; returns the seconds spent."""
         start = time.perf_counter()
-        gpu.set_texture(name, flat())
-        self.tokens[name] = token
+        if not upload_if_new(self.tokens, gpu, name, got, flat):
+            return 0.0
         self.uploads += 1
         return time.perf_counter() - start
 
@@ -63,7 +59,7 @@ class EffectTextures:
                              build=lambda i=i, t=t, g=g, b=build, k=per_splat:
                              packing.stream(i.splats.count * k) if t is None else b(t, g, i.splats.rotations))
                    for i, t, g in zip(items, targets, degrees)]
-            seconds += self._put(gpu, name, got, lambda got=got, k=per_splat: _joined(got, counts, k))
+            seconds += self._put(gpu, name, got, lambda got=got, k=per_splat: joined(got, counts, k))
         return seconds
 
     def _fields(self, items, gpu, packs) -> float:
@@ -102,11 +98,7 @@ class EffectTextures:
         got = [packs.get("rest", i, (i.rest_positions if r else None,),
                          lambda i=i, r=r: packing.pack_xyz(i.rest_positions if r else None, i.splats.count),
                          key=i.base_key) for i, r in zip(items, reads)]
-        return self._put(gpu, "rest", got, lambda: _joined(got, [i.splats.count for i in items], 4))
-
-
-def _joined(got: list, counts: list, per_splat: int) -> np.ndarray:
-    return got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
+        return self._put(gpu, "rest", got, lambda: joined(got, [i.splats.count for i in items], 4))
 
 
 def noise_rows(item: RenderItem, params) -> np.ndarray:

@@ -1,8 +1,10 @@
-"""What the viewport builds from an item's arrays, cached by their identity, and the keys
-it is filed under (no bpy, no gpu)."""
+"""What the viewport builds from an item's arrays, cached by their identity, the keys it is
+filed under, and the upload of a texture joined from them when they change (no bpy; the
+gpu object is handed in)."""
 from __future__ import annotations
 
 from ...core.scene import RenderItem
+from . import packing
 
 
 class PackCache:
@@ -52,3 +54,20 @@ def data_key(item: RenderItem, fields: tuple):
     if item.base_key is not None and item.base_fields.issuperset(fields):
         return item.base_key
     return item.key
+
+
+def upload_if_new(tokens: dict, gpu, name: str, got: list, flat) -> bool:
+    """Upload texture `name` from flat() unless `got` (PackCache.get's results, an object
+    each) is what it was last built from (tokens: name -> their identities). Returns
+    whether it uploaded."""
+    token = tuple(ident for ident, _ in got)
+    if tokens.get(name) == token:
+        return False
+    gpu.set_texture(name, flat())
+    tokens[name] = token
+    return True
+
+
+def joined(got: list, counts: list, per_splat: int):
+    """The objects' packed streams (PackCache.get's results) as one stream, in order."""
+    return got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)

@@ -19,7 +19,7 @@ from ...core.scene import RenderItem
 from . import packing
 from .effect_rows import effect_rows, morph_of
 from .effect_textures import EffectTextures
-from .pack_cache import PackCache, data_key, positions_key_of, reads_rest
+from .pack_cache import PackCache, data_key, joined, positions_key_of, reads_rest, upload_if_new
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
                                    visible_order)
@@ -131,13 +131,9 @@ class ViewportRenderer:
         start = time.perf_counter()
         got = [self.packs.get(name, i, tuple(getattr(i.splats, f) for f in fields), lambda i=i: build(i), extra,
                               key=data_key(i, fields)) for i in items]
-        token = tuple(ident for ident, _ in got)
-        if self.state.tokens.get(name) == token:
-            return 0.0
         counts = [i.splats.count for i in items]
-        flat = got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
-        self.gpu.set_texture(name, flat)
-        self.state.tokens[name] = token
+        if not upload_if_new(self.state.tokens, self.gpu, name, got, lambda: joined(got, counts, per_splat)):
+            return 0.0
         self.stats.uploads += 1
         return time.perf_counter() - start
 

@@ -163,13 +163,6 @@ class SplatGPU:
     def _upload(self, name: str, flat: np.ndarray, fmt: str, width: int = WIDTH) -> None:
         if self._alpha_target is not None and self._alpha_target[0] is self.textures.get(name):
             self._alpha_target = None  # let the replaced texture go
-        # The replaced texture goes first: its storage (16 MB of centres for 1M splats,
-        # re-uploaded each frame an effect moves them) is then free for the new one, and
-        # the driver's allocator (llvmpipe: malloc) hands it back with its pages mapped.
-        # Made while the old one lived, the new one got fresh pages in half the runs here,
-        # whose first touch cost 10-30 ms a frame (a 1M-splat scrub of the stack of three,
-        # evaluation to upload: medians of 6 runs 9.4 ms, against 13.5 ms and up to 37).
-        self.textures.pop(name, None)
         self.textures[name] = float_texture(flat, fmt, width)
         self.uploaded += texture_bytes(self.textures[name])
         self.version += 1

@@ -411,17 +411,21 @@ def _check_morph(w, g, index, source, target, cpu):
     assert (np.abs(g[:, 8:11] - w[:, 8:11]) <= colour_tol).all(), "colour"
 
 
-def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_ready, testdata):
+@pytest.mark.parametrize("source_name, target_name", (("guitar.ply", "guitar.ply"),
+                                                       ("guitar.ply", "test64.ply"),
+                                                       ("test64.ply", "guitar.ply")))
+def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_ready, testdata,
+                                                               source_name, target_name):
     """Two captures imported by the import operator (the second turned and moved), a morph
     between them added by the effect operator, its amount keyframed: the viewport's
     evaluation defers the morph, so a scrubbed frame uploads the blended centres, the
-    order and the table, and draws what the kernel's blend uploaded whole draws."""
+    order and the table, and draws what the kernel's blend uploaded whole draws. Of the
+    same size (paired in order) and of others (90,854 and 64 splats, either way: the ends
+    morph.aligned gathers once)."""
     from addon.core.effects import Morph
 
     bpy = bpy_empty
-    for name in ("guitar.ply", "guitar.ply"):
-        assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / name)) == {"FINISHED"}
-    source, target = sorted((o for o in bpy.data.objects if o.type == "POINTCLOUD"), key=lambda o: o.name)
+    source, target = (_imported(bpy, testdata / name) for name in (source_name, target_name))
     target.location, target.rotation_euler = (0.4, 0.0, 0.3), (1.2, 0.0, 0.5)
     target.splatline.look.visible = False
     with bpy.context.temp_override(object=source):
@@ -435,33 +439,9 @@ def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_r
     _scrub(bpy, (6, 13), [Morph], {"morph_pos", "morph_shape", "morph_sh"})
 
 
-@pytest.mark.parametrize("source_name, target_name", (("guitar.ply", "test64.ply"),
-                                                       ("test64.ply", "guitar.ply")))
-def test_scrubbing_a_morph_between_captures_of_other_sizes(bpy_empty, gpu_ready, testdata,
-                                                          source_name, target_name):
-    """Two captures of different sizes (90,854 and 64 splats), imported by the import
-    operator, morphed either way by the effect operator: the viewport defers the morph as
-    its ends gathered once (morph.aligned), so a scrubbed frame uploads the centres, the
-    order and the table alone, and draws what the kernel's blend uploaded whole draws."""
-    from addon.core.effects import Morph
-
-    bpy = bpy_empty
-    for name in (source_name, target_name):
-        assert bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / name)) == {"FINISHED"}
-    source, target = (next(o for o in bpy.data.objects if o.name == name.split(".")[0])
-                      for name in (source_name, target_name))
-    assert len(source.data.points) != len(target.data.points)
-    target.location, target.rotation_euler = (0.2, 0.0, 0.1), (0.3, 0.0, 0.5)
-    target.splatline.look.visible = False
-    with bpy.context.temp_override(object=source):
-        assert bpy.ops.splatline.effect_add(type="MORPH") == {"FINISHED"}
-    morph = source.splatline.effects[0]
-    morph.target = target
-    for frame, amount in ((1, 0.0), (20, 1.0)):
-        morph.amount = amount
-        morph.keyframe_insert("amount", frame=frame)
-
-    _scrub(bpy, (6, 13), [Morph], {"morph_pos", "morph_shape", "morph_sh"})
+def _imported(bpy, path):
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(path)) == {"FINISHED"}
+    return bpy.context.active_object
 
 
 def test_rendered_shading_defers_too_and_final_renders_never(bpy_empty, testdata):

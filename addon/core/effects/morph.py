@@ -6,8 +6,9 @@ spatial-sort pairing: both sets are ordered along a 30-bit Morton curve over the
 bounding box, and the k-th splat of the smaller set pairs with the splat at rank
 floor((k + 0.5) * n_large / n_small) of the larger. Splats of the larger set left without a
 partner fade: unpaired source splats fade out, unpaired target splats fade in, each in
-place. The output is in the larger set's order (`aligned`). At amount 0 the result is the source itself, at amount 1 the target itself.
-Position, scale, opacity and SH are blended linearly, rotation by slerp (shortest arc).
+place. The output is in the larger set's order (`aligned`). At amount 0 the result is the
+source itself, at amount 1 the target itself. Position, scale, opacity and SH are blended
+linearly, rotation by slerp (shortest arc).
 """
 from __future__ import annotations
 

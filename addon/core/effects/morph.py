@@ -259,11 +259,14 @@ def _placed(count: int, k: int, parts) -> dict:
     they go transparent): between them the parts cover every row."""
     out = {"positions": np.empty((count, 3), F32), "scales": np.empty((count, 3), F32),
            "rotations": np.empty((count, 4), F32), "opacities": np.empty(count, F32),
-           "sh_dc": np.empty((count, 3), F32), "sh_rest": np.zeros((count, k, 3), F32)}
+           "sh_dc": np.empty((count, 3), F32), "sh_rest": BUFFERS.empty((count, k, 3), F32)}
     for s, rows, to, transparent in parts:
         for f in ("positions", "scales", "rotations", "opacities", "sh_dc"):
             out[f][to] = getattr(s, f)[rows]
-        out["sh_rest"][to, :s.sh_rest.shape[1]] = s.sh_rest[rows]
+        width = s.sh_rest.shape[1]
+        out["sh_rest"][to, :width] = s.sh_rest[rows]
+        if width < k:
+            out["sh_rest"][to, width:] = 0.0
         if transparent:
             out["opacities"][to] = 0.0
     return out

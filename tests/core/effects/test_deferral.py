@@ -74,6 +74,7 @@ SPLITS = (
 
 def _morph_splits(capture):
     morph, uneven = morphs(capture)
+    off = replace(REVEAL, enabled=False)
     return (
         ((morph,), (), ((morph, False),)),
         ((REVEAL, morph), (REVEAL,), ((morph, False),)),
@@ -83,12 +84,15 @@ def _morph_splits(capture):
         ((morph, DISPLACE, GRADE), (morph, DISPLACE), ((GRADE, False),)),
         # paired along the Morton curve: handed over as its ends, in order
         ((uneven, GRADE), (), ((uneven, False), (GRADE, False))),
-        ((REVEAL, uneven), (REVEAL,), ((uneven, False),)),
         ((uneven, DISPLACE, GRADE), (uneven, DISPLACE), ((GRADE, False),)),
+        # its ends are gathered from its source: only the stack's input stays the same
+        # arrays from frame to frame (an inactive effect hands its input on)
+        ((REVEAL, uneven), (REVEAL, uneven), ()),
+        ((off, uneven), (off,), ((uneven, False),)),
     )
 
 
-@pytest.mark.parametrize("case", range(8))
+@pytest.mark.parametrize("case", range(9))
 def test_a_deferred_morph_is_the_stack_too(capture, case):
     stack, cpu, deferred = _morph_splits(capture)[case]
     test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred)

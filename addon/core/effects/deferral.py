@@ -62,11 +62,13 @@ def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, 
 
 def _ends_kept(p: Morph, before: list) -> bool:
     """Whether a deferred morph's ends (morph.aligned) stay the same arrays from frame to
-    frame. Paired in order, they are its source and target themselves; otherwise they are
-    gathered from its source, whose arrays are the same each frame only when no active
-    effect comes before it. Gathered anew each frame, they cost more than the blend on the
-    CPU (a reveal, then a morph of 1M splats to 750k: 1146 against 908 ms a frame)."""
-    return (p.pairing is not None and p.pairing.in_order) or not any(q.active for q in before)
+    frame. Without a pairing of its own the morph pairs its splats anew each frame
+    (morph.pairing_for), and so gathers its ends anew. Paired in order, they are its
+    source and target themselves; otherwise they are gathered from its source, whose
+    arrays are the same each frame only when no active effect comes before it. Gathered
+    anew each frame, they cost more than the blend on the CPU (a reveal, then a morph of
+    1M splats to 750k: 1146 against 908 ms a frame)."""
+    return p.pairing is not None and (p.pairing.in_order or not any(q.active for q in before))
 
 
 def drawn_splats(splats: SplatSet, deferred: tuple) -> tuple[SplatSet, tuple]:

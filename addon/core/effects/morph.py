@@ -229,7 +229,7 @@ def _align(source: SplatSet, target: SplatSet, pairing: Pairing) -> tuple:
     """aligned's new arrays only ({field: array} for each end, the ends' pairing): a memo
     value that held its inputs' arrays would keep its own weak keys alive."""
     k = sh_coeff_count(max(source.sh_degree, target.sh_degree))
-    count = source.count if pairing.in_order else max(source.count, target.count)
+    count = max(source.count, target.count)  # both, paired in order
     if pairing.in_order:
         new_a, new_b = _padded(source, k), _padded(target, k)
     elif source.count >= target.count:

@@ -74,7 +74,7 @@ SPLITS = (
 
 def _morph_splits(capture):
     morph, uneven = morphs(capture)
-    off = replace(REVEAL, enabled=False)
+    off, unpaired = replace(REVEAL, enabled=False), replace(uneven, pairing=None)
     return (
         ((morph,), (), ((morph, False),)),
         ((REVEAL, morph), (REVEAL,), ((morph, False),)),
@@ -89,10 +89,12 @@ def _morph_splits(capture):
         # arrays from frame to frame (an inactive effect hands its input on)
         ((REVEAL, uneven), (REVEAL, uneven), ()),
         ((off, uneven), (off,), ((uneven, False),)),
+        # without a pairing of its own it would pair and gather anew each frame
+        ((unpaired,), (unpaired,), ()),
     )
 
 
-@pytest.mark.parametrize("case", range(9))
+@pytest.mark.parametrize("case", range(10))
 def test_a_deferred_morph_is_the_stack_too(capture, case):
     stack, cpu, deferred = _morph_splits(capture)[case]
     test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred)

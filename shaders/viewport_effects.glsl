@@ -1,9 +1,11 @@
-// Viewport (Blender gpu module): the colour effects the preprocess pass applies itself
-// (Reveal and Grade by height, distance or noise, core/effects/deferral.py), each the numpy
-// kernel's arithmetic in the same order (core/effects/reveal.py, grade.py), on the base
-// splats' opacity, |scale| and SH DC. Rows: addon/blender/viewport/effect_rows.py;
-// pinned to the kernels by tests/blender/viewport/test_viewport_effects.py.
-// Needs object_tex and field_tex declared (GPUShaderCreateInfo) and SL_SH_C0 from splat_math.glsl.
+// Viewport (Blender gpu module): the effects the preprocess pass applies itself (Reveal and
+// Grade by height, distance or noise, and Displace; core/effects/deferral.py), each the
+// numpy kernel's arithmetic in the same order (core/effects/reveal.py, grade.py,
+// displace.py), on the base splats' centre, opacity, |scale| and SH DC. Rows:
+// addon/blender/viewport/effect_rows.py; pinned to the kernels by
+// tests/blender/viewport/test_viewport_effects.py and test_viewport_displace.py.
+// Needs object_tex, field_tex, displace_a_tex and displace_b_tex declared
+// (GPUShaderCreateInfo) and SL_SH_C0 from splat_math.glsl.
 
 const int EFFECT_TEXELS = 8;
 
@@ -66,7 +68,26 @@ void grade_effect(int row, float gain, float f, inout vec3 dc)
     dc += delta * gain;
 }
 
-// Apply `count` effects whose rows start at texel `first`, in stack order. `at` and
+// The centre a deferred displace among the `count` effects at `first` moves `p` (the
+// stack's input centre) to: its two layers' rows blended as displace.apply blends them,
+// (a w_a + b w_b) gain + p; `p` itself where there is none.
+vec3 displaced(int first, int count, vec3 p, int splat)
+{
+    for (int e = 0; e < count; e++) {
+        int row = first + e * EFFECT_TEXELS;
+        if (int(effect_texel(row, 0).x) != 3) continue;
+        vec4 w = effect_texel(row, 1);
+        ivec2 at = ivec2(splat % sizes.x, splat / sizes.x);
+        vec3 c = texelFetch(displace_a_tex, at, 0).xyz * w.x;
+        c += texelFetch(displace_b_tex, at, 0).xyz * w.y;
+        c *= w.z;
+        return p + c;
+    }
+    return p;
+}
+
+// Apply the colour effects among the `count` effects whose rows start at texel `first`, in
+// stack order. `at` and
 // `rest`: the splat's final and input centres (equal when nothing moved it); local_splat:
 // its index within its object.
 void apply_effects(int first, int count, vec3 at, vec3 rest, int local_splat, inout float opacity,
@@ -75,8 +96,10 @@ void apply_effects(int first, int count, vec3 at, vec3 rest, int local_splat, in
     for (int e = 0; e < count; e++) {
         int row = first + e * EFFECT_TEXELS;
         vec4 head = effect_texel(row, 0);
+        int kind = int(head.x);
+        if (kind == 3) continue;  // the displace: displaced()
         float f = effect_field(row, int(head.y), head.z > 0.5 ? rest : at, local_splat);
-        if (int(head.x) == 1) reveal_effect(row, head.w, f, opacity, scale, dc);
+        if (kind == 1) reveal_effect(row, head.w, f, opacity, scale, dc);
         else grade_effect(row, head.w, f, dc);
     }
 }

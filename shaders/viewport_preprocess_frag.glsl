@@ -10,9 +10,10 @@
 //   rec_color  colour after SH, grade and output conversion; display mode (0, 1, 2)
 // Per-object table (10 texels an object): columns of cam_from_local with splat scale,
 // opacity scale, SH degree; eye hi + mode; eye lo + sh_only; the 3x4 colour matrix;
-// orthographic view direction + the object's first splat index; the object's colour
+// orthographic view direction + the object's first splat index; the object's deferred
 // effects (first texel, count, whether they read rest_tex), whose rows follow the objects',
-// and a deferred morph's amount (0: none; the target's data in the morph_* textures).
+// and a deferred morph's amount (0: none; the target's data in the morph_* textures). A
+// deferred displace moves pos_tex's centre (then the stack's input) by its noise layers.
 // Everything is camera-relative: t = cam_from_local * (p - eye), eye split hi + lo.
 
 const int OBJECT_TEXELS = 10;
@@ -153,14 +154,16 @@ void main()
         morph_splat(splat, effects.w, opacity, scale, q, dc);
         if (!sl_is_finite(opacity)) return;  // NaN: packing found the target's splat undrawable
     }
+    vec3 centre_local = p.xyz;
     if (effects.y > 0.0) {
+        centre_local = displaced(int(effects.x), int(effects.y), p.xyz, splat);
         vec3 rest = effects.z > 0.5 ? fetch(rest_tex, splat).xyz : p.xyz;
-        apply_effects(int(effects.x), int(effects.y), p.xyz, rest, splat - int(ortho_dir.w), opacity,
-                      scale, dc);
+        apply_effects(int(effects.x), int(effects.y), centre_local, rest, splat - int(ortho_dir.w),
+                      opacity, scale, dc);
     }
     opacity *= o1.w;
 
-    vec3 rel = (p.xyz - eye_hi.xyz) - eye_lo.xyz;
+    vec3 rel = (centre_local - eye_hi.xyz) - eye_lo.xyz;
     vec3 t = cam_from_local * rel;
     float depth = -t.z;
     if (!(depth > frame.z) || depth > frame.w) return;

@@ -29,10 +29,12 @@ class RenderItem:
                    read-only arrays (a deferred morph's ends): under an equal base_key the
                    very same array holds the same values, so a renderer may keep what it
                    uploaded of them while `key` changes with the effects
-    deferred       colour effects and a last morph left out of `splats` for the renderer to
-                   apply itself (effects.deferral.Deferred, in order; a morph's ends are
-                   `splats` and its target, in order, with the centres blended in `splats`
-                   already); only the viewport asks for them
+    deferred       colour effects, a last morph and a displace left out of `splats` for the
+                   renderer to apply itself (effects.deferral.Deferred, in order; a morph's
+                   ends are `splats` and its target, in order, with the centres blended in
+                   `splats` already; a displace's centres are moved in `splats` already, to
+                   sort by, and the renderer draws them from rest_positions); only the
+                   viewport asks for them
     rest_positions the effects' input centres, which an `at_rest` deferred effect measures
     """
 

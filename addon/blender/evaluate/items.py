@@ -167,9 +167,10 @@ def item_for(obj_eval, depsgraph=None, defer=None) -> RenderItem:
     key: (name, base key) while the splats are the base data itself; with crop or effects,
     (name, base key, crop, effect signatures incl. time for time-driven effects), so equal
     keys mean equal splats and a renderer's per-key upload cache never shows a stale frame.
-    defer(params) -> bool: the caller applies such effects (colour effects, a last morph)
-    itself where the stack allows it (core.effects.deferral); they are then on
-    item.deferred, not in its splats (but for a deferred morph's blended centres).
+    defer(params) -> bool: the caller applies such effects (colour effects, a last morph,
+    a displace) itself where the stack allows it (core.effects.deferral); they are then on
+    item.deferred, not in its splats (but for the centres a deferred morph or displace
+    moves: the caller sorts by them).
     """
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     world = np.array(obj_eval.matrix_world, np.float64)
@@ -191,7 +192,7 @@ def item_for(obj_eval, depsgraph=None, defer=None) -> RenderItem:
     on_cpu, deferred = split_stack(effects.params, defer) if defer else (effects.params, ())
     result = evaluate_stack(splats, on_cpu, time)
     if deferred:
-        drawn, deferred = drawn_splats(result.splats, deferred)
+        drawn, deferred = drawn_splats(result.splats, deferred, time)
         result = StackResult(drawn, drawn.positions is not splats.positions)
     key = (name, base_key)
     if result.splats is not base or deferred:

@@ -3,9 +3,9 @@ rows the shader reads the colour effects from (no bpy, no gpu). A morph has no r
 object's row holds its amount, and the target's own textures hold the rest.
 
 Scrubbing a reveal or a grade on the CPU rewrites and re-uploads the opacity, scale and
-colour of every splat each frame; here a frame uploads a few texels of parameters instead,
-and shaders/viewport_effects.glsl applies the numpy kernels' arithmetic (core/effects/
-reveal.py, grade.py) to the base splats. Which effects may leave the stack is
+colour of every splat each frame, and a displace its centres; here a frame uploads a few
+texels of parameters instead, and shaders/viewport_effects.glsl applies the numpy kernels'
+arithmetic (core/effects/reveal.py, grade.py, displace.py) to the base splats. Which effects may leave the stack is
 core/effects/deferral.py's rule; final renders and Blender's own engines never defer.
 
 Rows, EFFECT_TEXELS texels of RGBA32F per effect, after the objects' rows in the same
@@ -14,6 +14,8 @@ table texture:
     1..3   rows 0..2 of gizmo-local from object (field = these applied to the centre);
            noise: 1.x the texel of the fields texture holding the object's first splat's
            value (the core's memoized noise at the rest centres, field_values' mapping)
+displace (kind 3; its noise layers are the displace_a and displace_b textures):
+    1      weight of layer a, weight of layer b (0 where the kernel blends one), gain
 reveal:
     4      progress, -1 / width, invert, amount * shrink
     5      glow colour rgb, 4 amount glow_strength / C0 (0: no glow)
@@ -26,7 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.effects.common import inverse, is_identity
+from ...core.effects.common import F32, inverse, is_identity
+from ...core.effects.displace import Displace
 from ...core.effects.grade import MODES, Grade
 from ...core.effects.morph import Morph
 from ...core.effects.reveal import Reveal
@@ -34,7 +37,7 @@ from ...core.sh import C0
 
 EFFECT_TEXELS = 8
 MAX_STOPS = 3
-REVEAL, GRADE = 1, 2
+REVEAL, GRADE, DISPLACE = 1, 2, 3
 _REVEAL_FIELDS = {"PLANE": 0, "SPHERE": 1, "NOISE": 2}
 _GRADE_FIELDS = {"HEIGHT": 0, "DISTANCE": 1, "NOISE": 2}
 
@@ -45,8 +48,8 @@ def _finite(*values) -> bool:
 
 def on_gpu(params) -> bool:
     """Whether the preprocess pass can apply this effect: reveal and grade (by height,
-    distance or noise), and a morph of any pairing (deferral.drawn_splats hands over its
-    ends in order). Amount and shrink within [0, 1] (the panel's ranges) keep the base
+    distance or noise), displace, and a morph of any pairing (deferral.drawn_splats hands
+    over its ends in order). Amount and shrink within [0, 1] (the panel's ranges) keep the base
     scales an upper bound of what a colour effect draws, which the sort's culling radius
     relies on."""
     if not (getattr(params, "active", False) and 0.0 < params.amount <= 1.0):
@@ -60,6 +63,8 @@ def on_gpu(params) -> bool:
         return (params.field in _GRADE_FIELDS and params.mode in MODES
                 and 1 <= len(params.stops) <= MAX_STOPS and _finite(params.low, params.high)
                 and all(_finite(x, *rgb) for x, rgb in params.stops))
+    if type(params) is Displace:
+        return _finite(params.amplitude, params.frequency, params.speed)
     if type(params) is Morph:  # any pairing: the renderer is handed its ends in order
         return params.amount < 1.0 and params.target is not None
     return False
@@ -68,6 +73,18 @@ def on_gpu(params) -> bool:
 def morph_of(deferred: tuple):
     """The deferred morph's params (the first deferred effect, split_stack's rule), or None."""
     return deferred[0].params if deferred and type(deferred[0].params) is Morph else None
+
+
+def displace_of(deferred: tuple):
+    """The deferred displace (a Deferred carrying its layers), or None."""
+    return next((d for d in deferred if type(d.params) is Displace), None)
+
+
+def displace_layers(d) -> tuple:
+    """A deferred displace's (layer a, layer b) rows: b is a again where the kernel blends
+    one layer (its weight is then 0)."""
+    rows = [r for _, r in d.layers]
+    return rows[0], rows[-1]
 
 
 def is_noise(params) -> bool:
@@ -84,6 +101,10 @@ def effect_rows(deferred: tuple, field_starts: list = ()) -> np.ndarray:
     for k, d in enumerate(deferred):
         part = rows[k * EFFECT_TEXELS:(k + 1) * EFFECT_TEXELS]
         p = d.params
+        if type(p) is Displace:
+            part[0, 0] = DISPLACE
+            part[1, :3] = _displace_weights(d)
+            continue
         if is_noise(p):
             part[1, 0] = next(starts)
         else:
@@ -97,6 +118,13 @@ def effect_rows(deferred: tuple, field_starts: list = ()) -> np.ndarray:
         else:
             raise TypeError(f"the viewport cannot apply {type(p).__name__} itself")
     return rows
+
+
+def _displace_weights(d) -> tuple:
+    """(weight a, weight b, gain) as the kernel rounds them (displace.apply)."""
+    (w0, _), *second = d.layers
+    w1 = second[0][0] if second else 0.0
+    return F32(w0), F32(w1), F32(d.params.amount * d.params.amplitude)
 
 
 def _reveal(part: np.ndarray, p: Reveal) -> None:

@@ -1,7 +1,8 @@
 """The textures of the effects the preprocess pass applies itself (effect_rows.py): a
-morph's target, noise fields' values, the rest centres. Each is uploaded when its sources
-change (the target's arrays, the core's memoized noise, the base's centres: once, while
-scrubbing) and dropped when no object needs it (no bpy; the gpu object is handed in)."""
+morph's target, noise fields' values, a displace's noise layers, the rest centres. Each is
+uploaded when its sources change (the target's arrays, the core's memoized noise: once
+while scrubbing, or once a layer for a displace; the base's centres) and dropped when no
+object needs it (no bpy; the gpu object is handed in)."""
 from __future__ import annotations
 
 import time
@@ -12,7 +13,7 @@ from ...core.effects import noise
 from ...core.effects.morph import Morph
 from ...core.scene import RenderItem
 from . import packing
-from .effect_rows import is_noise, morph_of
+from .effect_rows import displace_layers, displace_of, is_noise, morph_of
 from .pack_cache import joined, reads_rest, upload_if_new
 
 
@@ -25,7 +26,7 @@ class EffectTextures:
     def upload(self, items, degrees, values, gpu, packs) -> float:
         """Upload what changed; returns the seconds spent."""
         return (self._morph(items, degrees, values, gpu, packs) + self._fields(items, gpu, packs)
-                + self._rest(items, gpu, packs))
+                + self._displace(items, gpu, packs) + self._rest(items, gpu, packs))
 
     def _drop(self, gpu, name: str) -> None:
         gpu.drop(name)
@@ -87,6 +88,24 @@ class EffectTextures:
             return out
 
         return self._put(gpu, "fields", got, flat)
+
+    def _displace(self, items, gpu, packs) -> float:
+        """A deferred displace's two noise layers (the core's memoized rows at the rest
+        centres, the same arrays until the layer changes), a texel a splat in each of
+        displace_a and displace_b; zeros for objects without one."""
+        layers = [None if d is None else displace_layers(d) for d in map(displace_of, (i.deferred for i in items))]
+        if all(pair is None for pair in layers):
+            for name in packing.DISPLACE:
+                self._drop(gpu, name)
+            return 0.0
+        counts = [i.splats.count for i in items]
+        seconds = 0.0
+        for slot, name in enumerate(packing.DISPLACE):
+            rows = [None if pair is None else pair[slot] for pair in layers]
+            got = [packs.get(name, i, (r,), lambda i=i, r=r: packing.pack_xyz(r, i.splats.count), key=i.base_key)
+                   for i, r in zip(items, rows)]
+            seconds += self._put(gpu, name, got, lambda got=got: joined(got, counts, 4))
+        return seconds
 
     def _rest(self, items, gpu, packs) -> float:
         """The effects' input centres, for deferred effects measured there while others

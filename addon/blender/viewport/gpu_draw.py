@@ -23,7 +23,7 @@ import numpy as np
 import gpu
 from gpu_extras.batch import batch_for_shader
 
-from .packing import MORPH, WIDTH, padded
+from .packing import DISPLACE, MORPH, WIDTH, padded
 
 SHADERS = pathlib.Path(__file__).resolve().parents[3] / "shaders"
 CORNERS = ((-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
@@ -32,8 +32,9 @@ DATA = ("pos", "shape", "sh", "order")
 # colour record cost 7 dB against the reference on the bench's degree-3 scene.
 RECORDS = {"rec_pos": "RGBA32F", "rec_conic": "RGBA32F", "rec_color": "RGBA32F"}
 FORMATS = {"pos": "RGBA32F", "shape": "RGBA16F", "sh": "RGBA16F", "order": "R32F", "objects": "RGBA32F",
-           "rest": "RGBA32F", "fields": "R32F", "morph_pos": "RGBA32F", "morph_shape": "RGBA16F", "morph_sh": "RGBA16F"}
-OPTIONAL = ("rest", "fields", *MORPH)  # textures only some scenes need
+           "rest": "RGBA32F", "fields": "R32F", "morph_pos": "RGBA32F", "morph_shape": "RGBA16F", "morph_sh": "RGBA16F",
+           "displace_a": "RGBA32F", "displace_b": "RGBA32F"}
+OPTIONAL = ("rest", "fields", *MORPH, *DISPLACE)  # textures only some scenes need
 TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4}
 
 
@@ -61,7 +62,7 @@ def preprocess_shader():
     info = gpu.types.GPUShaderCreateInfo()
     _constants(info)
     for slot, name in enumerate(("pos_tex", "shape_tex", "sh_tex", "order_tex", "object_tex", "rest_tex",
-                                 "field_tex", *(f"{m}_tex" for m in MORPH))):
+                                 "field_tex", *(f"{m}_tex" for m in (*MORPH, *DISPLACE)))):
         info.sampler(slot, "FLOAT_2D", name)
     info.vertex_in(0, "VEC2", "corner")
     for slot, name in enumerate(RECORDS):
@@ -259,7 +260,7 @@ class SplatGPU:
             # read only by objects whose table row says so: any texture will do otherwise
             self.pre_shader.uniform_sampler("rest_tex", self.textures.get("rest", self.textures["pos"]))
             self.pre_shader.uniform_sampler("field_tex", self.textures.get("fields", self.textures["order"]))
-            for name, stand_in in MORPH.items():
+            for name, stand_in in {**MORPH, **DISPLACE}.items():
                 self.pre_shader.uniform_sampler(f"{name}_tex", self.textures.get(name, self.textures[stand_in]))
             self.pre_batch.draw(self.pre_shader)
         self.records_for = key

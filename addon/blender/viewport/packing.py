@@ -39,6 +39,8 @@ OBJECT_TEXELS = 10    # per-object table row: see object_rows
 # a deferred morph's target, in the layouts of pos, shape and sh (the shader reads those
 # in their place where no object morphs)
 MORPH = {"morph_pos": "pos", "morph_shape": "shape", "morph_sh": "sh"}
+# a deferred displace's two noise layers at the rest centres, a texel a splat (xyz, w 0)
+DISPLACE = {"displace_a": "pos", "displace_b": "pos"}
 HALF_MAX = 65504.0
 HALF_TINY = 2.0 ** -24  # the smallest positive half: stands for a zero scale, keeping its sign
 _OTHERS = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])

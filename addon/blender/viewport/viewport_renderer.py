@@ -19,7 +19,7 @@ from ...core.scene import RenderItem
 from . import packing
 from .effect_rows import effect_rows, morph_of
 from .effect_textures import EffectTextures
-from .pack_cache import PackCache, data_key, joined, positions_key_of, reads_rest, upload_if_new
+from .pack_cache import PackCache, data_key, joined, pos_source, positions_key_of, reads_rest, upload_if_new
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
                                    visible_order)
@@ -152,8 +152,8 @@ class ViewportRenderer:
         """The pos texture: kept when its sources are, its alpha channel alone rewritten
         when only opacities (or drawability) changed; returns seconds spent."""
         start = time.perf_counter()
-        change = self.pos.update([(positions_key_of(i), i.splats.positions, data_key(i, ("opacities",)),
-                                   i.splats.opacities, v) for i, v in zip(items, valid)])
+        change = self.pos.update([(*pos_source(i), data_key(i, ("opacities",)), i.splats.opacities, v)
+                                  for i, v in zip(items, valid)])
         if change == ALPHA and "pos" in self.gpu.textures:
             self.gpu.set_alpha("pos", self.pos.alpha)
             self.stats.alpha_uploads += 1

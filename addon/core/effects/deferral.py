@@ -12,17 +12,22 @@ A morph is deferred when everything after it is: the renderer blends its two end
 (morph.aligned), except the centres, which the CPU blends (`drawn_splats`: the renderer
 sorts by them), exactly as the kernel does. A morph between sets of other sizes is deferred
 only where its ends are gathered once while scrubbing (`_ends_kept`).
+A displace is deferred when everything after it is and nothing before it moves the splats:
+its input centres are then the stack's input, the same array every frame, and the renderer
+adds the noise layers' blend to them itself. The CPU still displaces the centres the
+renderer sorts by (`drawn_splats`), but the renderer's copy of the centres stays as it was.
 
 `split_stack` decides; `apply_deferred` is the readable CPU meaning of the result, which
 tests pin to evaluate_stack bit for bit.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 from ..splats import SplatSet
 from . import registry
+from .displace import Displace, noise_layers
 from .morph import Morph, aligned, morph_positions, pairing_for
 from .stack import apply_effect
 
@@ -32,8 +37,11 @@ COLOUR = frozenset({"opacities", "scales", "sh_dc"})
 
 @dataclass(frozen=True)
 class Deferred:
-    params: object      # a kernel's params (a colour kind's, or a Morph's)
+    params: object      # a kernel's params (a colour kind's, a Displace's or a Morph's)
     at_rest: bool       # its field is measured at the stack's input centres, not the final ones
+    # a deferred displace, as drawn_splats hands it over: its noise layers at the frame's
+    # time, ((weight, (N, 3) rows), ...) as displace.noise_layers gives them
+    layers: tuple = field(default=(), compare=False)
 
 
 def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, tuple]:
@@ -50,7 +58,9 @@ def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, 
                 deferred.append(Deferred(p, at_rest=False))
                 cut = i
             break  # what comes before it is the morph's source
-        if kind.writes <= GEOMETRY:
+        if type(p) is Displace and not kept_after and not any(movers[:i]) and on_gpu(p):
+            deferred.append(Deferred(p, at_rest=True))
+        elif kind.writes <= GEOMETRY:
             kept_after.append(p)
         elif kind.writes <= COLOUR and on_gpu(p) and not (any(movers[:i]) and any(movers[i + 1:])):
             deferred.append(Deferred(p, at_rest=not any(movers[:i])))
@@ -71,13 +81,24 @@ def _ends_kept(p: Morph, before: list) -> bool:
     return p.pairing is not None and (p.pairing.in_order or not any(q.active for q in before))
 
 
-def drawn_splats(splats: SplatSet, deferred: tuple) -> tuple[SplatSet, tuple]:
+def drawn_splats(splats: SplatSet, deferred: tuple, time: float = 0.0) -> tuple[SplatSet, tuple]:
     """What the renderer is handed: the CPU part's splats and the deferred effects. With a
     deferred morph (the first deferred effect) both become its ends (morph.aligned), paired
     in order: the source end with the centres blended as the kernel blends them (the
-    renderer sorts by them), and the morph's target the target end. Otherwise the CPU
-    part's splats and the deferred effects as they are."""
-    if not deferred or type(deferred[0].params) is not Morph:
+    renderer sorts by them), and the morph's target the target end. A deferred displace
+    moves the handed centres as the kernel does (the renderer sorts by them too, and draws
+    them from its input's: `splats.positions`, then the stack's input) and carries its
+    noise layers at `time`. Otherwise the CPU part's splats and the deferred effects as
+    they are."""
+    if not deferred:
+        return splats, deferred
+    displace = next((k for k, d in enumerate(deferred) if type(d.params) is Displace), None)
+    if displace is not None:
+        p = deferred[displace].params
+        layered = replace(deferred[displace], layers=tuple(noise_layers(splats.positions, p, time)))
+        moved = apply_effect(splats, p, time, splats.positions)
+        return moved, deferred[:displace] + (layered,) + deferred[displace + 1:]
+    if type(deferred[0].params) is not Morph:
         return splats, deferred
     p = deferred[0].params
     ends = aligned(splats, p.target, pairing_for(splats, p))
@@ -92,7 +113,7 @@ def apply_deferred(splats: SplatSet, rest, deferred: tuple, time: float) -> Spla
     rest: the stack's input centres."""
     rest_or_none = rest if rest.shape[0] == splats.count else None  # as evaluate_stack
     for d in deferred:
-        if type(d.params) is Morph:  # first, on the CPU part's own splats
+        if type(d.params) in (Morph, Displace):  # they move the splats themselves
             splats = apply_effect(splats, d.params, time, rest_or_none)
             continue
         field_at = rest if d.at_rest else splats.positions

@@ -30,6 +30,14 @@ HALF_STEP = 2.0 ** -11  # a half's rounding, relative, to nearest
 DISPLACE = Displace(amplitude=0.08, frequency=2.0)
 
 
+def colour_only(p) -> bool:
+    """The viewport's taker without the displace: here a displace is the CPU's mover that
+    puts the drawn centres apart from the rest ones (test_viewport_displace.py defers it)."""
+    from addon.blender.viewport.effect_rows import on_gpu
+
+    return type(p) is not Displace and on_gpu(p)
+
+
 @pytest.fixture(scope="module")
 def gpu_ready(_bpy_registered):
     from testing.headless import ensure_gpu
@@ -101,9 +109,7 @@ CASES = list(cases())
 
 
 def test_the_cases_meet_every_branch():
-    from addon.blender.viewport.effect_rows import on_gpu
-
-    deferred = [split_stack(s, on_gpu)[1] for s in CASES]
+    deferred = [split_stack(s, colour_only)[1] for s in CASES]
     assert all(len(d) == 1 for d in deferred)
     assert {d[0].at_rest for d in deferred} == {True, False}
     reveal = [d[0].params for d in deferred if hasattr(d[0].params, "shape")]
@@ -120,13 +126,11 @@ def test_the_cases_meet_every_branch():
 
 @pytest.mark.parametrize("stack", CASES, ids=[_ids(s) for s in CASES])
 def test_deferred_effects_draw_the_kernels_records(gpu_ready, capture, stack):
-    from addon.blender.viewport.effect_rows import on_gpu
-
     splats, world, camera = capture
     splats = splats.subset(np.arange(0, splats.count, 2))  # every sixth: 72 cases, each small
     stack = [p if p is DISPLACE else _fitted(p, splats) for p in stack]
     time = 0.9
-    on_cpu, deferred = split_stack(stack, on_gpu)
+    on_cpu, deferred = split_stack(stack, colour_only)
     assert len(deferred) == 1
     cpu = evaluate_stack(splats, stack, time).splats
     part = evaluate_stack(splats, on_cpu, time).splats
@@ -247,9 +251,10 @@ def _field_near(splats, part, params, index, df) -> np.ndarray:
 
 def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, testdata):
     """Through Blender: a capture imported by the import operator, a reveal, a displace and
-    a grade added by the effect operator. The viewport's evaluation defers the reveal and
-    the grade, so a scrubbed frame uploads the displaced centres, the order and the table
-    but no colour; it draws what the whole stack evaluated on the CPU draws."""
+    a grade added by the effect operator. The viewport's evaluation defers all three, so a
+    scrubbed frame uploads the order and the table, but no centres (the displace moves its
+    copy of the rest centres by the noise layers, uploaded once a layer) and no colour; it
+    draws what the whole stack evaluated on the CPU draws."""
     from addon.core.effects import Grade, Reveal
 
     bpy = bpy_empty
@@ -264,15 +269,17 @@ def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, te
         reveal.progress = progress
         reveal.keyframe_insert("progress", frame=frame)
 
-    # "rest": the reveal measures the centres before displace moves them
-    _scrub(bpy, (8, 12), [Reveal, Grade], {"rest"})
+    # the pos texture holds the centres before displace moves them, where the reveal
+    # measures: no "rest" texture; frames 8 and 12 blend the same two noise layers
+    gpu = _scrub(bpy, (8, 12), [Reveal, Displace, Grade], {"displace_a", "displace_b"}, centres=False)
+    assert "rest" not in gpu.textures
 
 
-def _scrub(bpy, frames, kinds, textures):
+def _scrub(bpy, frames, kinds, textures, centres=True):
     """Scrub from frames[0] to frames[1] in one viewport renderer: the viewport's
     evaluation defers `kinds`, the renderer holds `textures`, the later frame uploads
-    the centres, the order and the table alone, and draws what the whole stack evaluated
-    on the CPU draws."""
+    the centres (where `centres`), the order and the table alone, and draws what the
+    whole stack evaluated on the CPU draws. Returns the renderer's gpu half."""
     from addon.blender.evaluate.items import collect_items
     from addon.blender.viewport import ViewportRenderer, packing
     from addon.blender.viewport.effect_rows import on_gpu
@@ -290,12 +297,14 @@ def _scrub(bpy, frames, kinds, textures):
     assert textures <= set(renderer.gpu.textures)
     later = at(frames[1], on_gpu)
     image, _ = draw_offscreen(later, camera, renderer=renderer)
-    n = packing.padded(later[0].splats.count)
-    assert 16 * n <= renderer.stats.frame_bytes < (16 + 4) * n + 4096  # pos, order, table
+    pos = 16 * packing.padded(later[0].splats.count) if centres else 0
+    order = 4 * packing.padded(renderer.stats.drawn)  # the splats in view
+    assert pos + order <= renderer.stats.frame_bytes < pos + order + 4096  # (pos), order, table
     whole = at(frames[1], None)
     assert not whole[0].deferred
     assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
     assert psnr(image, draw_offscreen(first, camera)[0]) < 40.0  # the frames differ
+    return renderer.gpu
 
 
 # radians: rounding the three smallest components (each <= 1/sqrt(2), so within 2^-12) to

@@ -22,7 +22,14 @@ def not_noise(p) -> bool:
     """A renderer that applies colour effects by height or distance and any morph."""
     if type(p) is Morph:
         return True
+    if type(p) is Displace:
+        return False
     return "NOISE" not in (getattr(p, "shape", None), getattr(p, "field", None))
+
+
+def and_displace(p) -> bool:
+    """The same renderer applying a displace too."""
+    return type(p) is Displace or not_noise(p)
 
 
 @pytest.fixture(scope="module")
@@ -72,6 +79,21 @@ SPLITS = (
 )
 
 
+# a displace is deferred when nothing before it moves the splats and all after it is deferred
+DISPLACE_SPLITS = (
+    ((DISPLACE,), (), ((DISPLACE, True),)),
+    ((REVEAL, DISPLACE, GRADE), (), ((REVEAL, True), (DISPLACE, True), (GRADE, False))),
+    ((GRADE, DISPLACE, REVEAL), (), ((GRADE, True), (DISPLACE, True), (REVEAL, False))),
+    # noise before it stays on the CPU: it moves nothing, so the input's centres stay
+    ((NOISY, DISPLACE, GRADE), (NOISY,), ((DISPLACE, True), (GRADE, False))),
+    # a mover before it, a CPU mover or a CPU colour effect after it
+    ((TWIST, DISPLACE, GRADE), (TWIST, DISPLACE), ((GRADE, False),)),
+    ((EXPLODE, DISPLACE), (EXPLODE, DISPLACE), ()),
+    ((DISPLACE, TWIST), (DISPLACE, TWIST), ()),
+    ((DISPLACE, NOISY), (DISPLACE, NOISY), ()),
+)
+
+
 def _morph_splits(capture):
     morph, uneven = morphs(capture)
     off, unpaired = replace(REVEAL, enabled=False), replace(uneven, pairing=None)
@@ -100,10 +122,15 @@ def test_a_deferred_morph_is_the_stack_too(capture, case):
     test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred)
 
 
+@pytest.mark.parametrize("stack, cpu, deferred", DISPLACE_SPLITS)
+def test_a_deferred_displace_is_the_stack_too(capture, stack, cpu, deferred):
+    test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred, and_displace)
+
+
 @pytest.mark.parametrize("stack, cpu, deferred", SPLITS)
-def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred):
+def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, deferred, taker=not_noise):
     """And the drawn splats (drawn_splats) hold the stack's own centres."""
-    got_cpu, got_deferred = split_stack(list(stack), not_noise)
+    got_cpu, got_deferred = split_stack(list(stack), taker)
     assert [id(p) for p in got_cpu] == [id(p) for p in cpu]
     assert got_deferred == tuple(Deferred(p, at_rest) for p, at_rest in deferred)
     want = evaluate_stack(capture, list(stack), 1.3).splats
@@ -112,11 +139,13 @@ def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, d
     for f in FIELDS:
         a, b = getattr(got, f), getattr(want, f)
         np.testing.assert_array_equal(a.view(np.uint32), b.view(np.uint32), err_msg=f)
-    drawn, handed = drawn_splats(part, got_deferred)
+    drawn, handed = drawn_splats(part, got_deferred, 1.3)
     np.testing.assert_array_equal(drawn.positions.view(np.uint32), want.positions.view(np.uint32))
     assert handed[1:] == got_deferred[1:] and len(handed) == len(got_deferred)
     if got_deferred and type(got_deferred[0].params) is Morph:
         _check_handed_morph(part, capture.positions, got_deferred[0].params, drawn, handed, want)
+    elif any(type(d.params) is Displace for d in got_deferred):
+        _check_handed_displace(part, handed, want)
     else:
         assert handed == got_deferred
         for f in set(FIELDS) - {"positions"}:
@@ -124,6 +153,23 @@ def test_split_and_then_the_deferred_effects_is_the_stack(capture, stack, cpu, d
     if deferred and not any(type(p) in (Reveal, Grade, Morph) for p in cpu):
         for f in ("scales", "sh_dc"):  # the colour the renderer re-uploads was left alone
             assert getattr(part, f) is getattr(capture, f), f
+
+
+def _check_handed_displace(part, handed, want):
+    """A renderer handed a displace adds its layers' blend to the CPU part's centres, which
+    are the stack's input (the renderer keeps its copy of them): the stack's centres."""
+    from addon.core.effects.displace import noise_layers
+
+    d = next(d for d in handed if type(d.params) is Displace)
+    assert [w for w, _ in d.layers] == [w for w, _ in noise_layers(part.positions, d.params, 1.3)]
+    (w0, a), *rest = d.layers
+    moved = a * np.float32(w0)
+    for w1, b in rest:
+        moved += b * np.float32(w1)
+    moved *= np.float32(d.params.amount * d.params.amplitude)
+    moved += part.positions
+    np.testing.assert_array_equal(moved.view(np.uint32), want.positions.view(np.uint32))
+    assert all(not d.layers for d in handed if type(d.params) is not Displace)
 
 
 def _check_handed_morph(part, rest, p, drawn, handed, want):

@@ -52,6 +52,30 @@ def draw_offscreen(items, camera, displays=None, settings=None, renderer=None):
     return rgba, renderer
 
 
+def _texels(texture, channels: int) -> np.ndarray:
+    return np.array(texture.read().to_list(), np.float32).reshape(-1, channels)
+
+
+def records(items, camera) -> tuple[np.ndarray, dict]:
+    """(drawn splat indices, {record name: (drawn, 4)}) of one viewport draw."""
+    _, renderer = draw_offscreen(items, camera)
+    gpu_ = renderer.gpu
+    n = gpu_.order_count
+    order = _texels(gpu_.textures["order"], 1)[:n, 0].astype(np.int64)
+    recs = {name: _texels(t, 4)[:n] for name, t in gpu_.records.items()}
+    renderer.close()
+    return order, recs
+
+
+def by_splat(order, rec, n):
+    """{splat: its 12 record values} of two copies of n splats drawn together: the first
+    copy's and the second's (indices n.. as 0..)."""
+    flat = np.concatenate([rec["rec_pos"], rec["rec_conic"], rec["rec_color"]], axis=1)
+    first = {int(i): flat[k] for k, i in enumerate(order) if i < n}
+    second = {int(i) - n: flat[k] for k, i in enumerate(order) if i >= n}
+    return first, second
+
+
 def psnr(a, b) -> float:
     mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
     return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)

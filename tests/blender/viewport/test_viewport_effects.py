@@ -24,7 +24,7 @@ from addon.core.render_constants import ALPHA_MIN
 from addon.core.sh import C0
 from testing.effect_cases import grades, reveals
 from testing.gl_scenes import framing_camera, world_for
-from testing.viewport_scene import draw_offscreen
+from testing.viewport_scene import by_splat, draw_offscreen, records
 
 HALF_STEP = 2.0 ** -11  # a half's rounding, relative, to nearest
 DISPLACE = Displace(amplitude=0.08, frequency=2.0)
@@ -53,21 +53,6 @@ def capture(testdata):
                               ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")})
     world = world_for(splats)
     return splats, world, framing_camera(RenderItem(splats, world), 160, 120)
-
-
-def _texels(texture, channels: int) -> np.ndarray:
-    return np.array(texture.read().to_list(), np.float32).reshape(-1, channels)
-
-
-def records(items, camera) -> tuple[np.ndarray, dict]:
-    """(drawn splat indices, {record name: (drawn, 4)}) of one viewport draw."""
-    _, renderer = draw_offscreen(items, camera)
-    gpu_ = renderer.gpu
-    n = gpu_.order_count
-    order = _texels(gpu_.textures["order"], 1)[:n, 0].astype(np.int64)
-    recs = {name: _texels(t, 4)[:n] for name, t in gpu_.records.items()}
-    renderer.close()
-    return order, recs
 
 
 def halves(a):
@@ -138,21 +123,13 @@ def test_deferred_effects_draw_the_kernels_records(gpu_ready, capture, stack):
     items = [RenderItem(cpu, world, key=("cpu",)),
              RenderItem(part, world, key=("gpu",), deferred=deferred, rest_positions=splats.positions)]
     order, rec = records(items, camera)
-    want, got = _by_splat(order, rec, n)
+    want, got = by_splat(order, rec, n)
     assert len(want) > 0.3 * n  # the capture is in view
     assert set(want) <= set(got)  # the base scales bound the culling radius
     both = np.array(sorted(want), np.int64)
     w = np.stack([want[i] for i in both])
     g = np.stack([got[i] for i in both])
     _check(w, g, both, splats, cpu, part, deferred[0].params)
-
-
-def _by_splat(order, rec, n):
-    """{splat: its 12 record values} of the CPU copy and of the deferred one."""
-    flat = np.concatenate([rec["rec_pos"], rec["rec_conic"], rec["rec_color"]], axis=1)
-    want = {int(i): flat[k] for k, i in enumerate(order) if i < n}
-    got = {int(i) - n: flat[k] for k, i in enumerate(order) if i >= n}
-    return want, got
 
 
 def _check(w, g, index, splats, cpu, part, params):
@@ -369,7 +346,7 @@ def test_a_deferred_morph_draws_the_kernels_records(gpu_ready, capture, testdata
     drawn, handed = drawn_splats(evaluate_stack(splats, on_cpu, 0.0).splats, deferred)
     items = [RenderItem(cpu, world, key=("cpu",)), RenderItem(drawn, world, key=("gpu",), deferred=handed)]
     order, rec = records(items, camera)
-    want, got = _by_splat(order, rec, cpu.count)
+    want, got = by_splat(order, rec, cpu.count)
     assert len(want) > 0.3 * cpu.count and set(want) <= set(got)
     index = np.array(sorted(want), np.int64)
     w, g = np.stack([want[i] for i in index]), np.stack([got[i] for i in index])

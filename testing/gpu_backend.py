@@ -22,6 +22,7 @@ GPU_MODULE_TESTS = frozenset({
     "blender/viewport/test_viewport_blender.py",
     "blender/viewport/test_viewport_display_modes.py",
     "blender/viewport/test_viewport_effects.py",
+    "blender/viewport/test_viewport_displace.py",
     "blender/viewport/test_viewport_memory.py",
     "blender/viewport/test_viewport_speed_paths.py",
 })

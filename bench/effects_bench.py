@@ -178,7 +178,7 @@ def bpy_table(n: int, runs: int) -> None:
     print(f"  first evaluation (reads the PointCloud): {first:8.0f} ms")
     print(f"  later frames, no effects (cached base):  {plain[0]:8.1f} ms wall {plain[1]:8.1f} ms CPU")
     print(f"  later frames, stack of three:            {stacked[0]:8.1f} ms wall {stacked[1]:8.1f} ms CPU")
-    scrub_table(collect, runs, effects)
+    scrub_table(collect, runs)
     morph_scrub(obj, n, collect, runs, effects)
 
 
@@ -224,16 +224,17 @@ def morph_scrub(obj, n: int, collect, runs: int, stack) -> None:
     off.free()
 
 
-def scrub_table(collect, runs: int, effects) -> None:
+def scrub_table(collect, runs: int) -> None:
     """A scrubbed frame on the drawing thread, from evaluation to upload: collect_items,
     then the viewport's prepare (staging, texture uploads, order) into a GPUOffScreen,
     the draw call itself left out (on llvmpipe it is software rasterisation). The draw
     handler's mode sorts on the worker thread (the last order drawn meanwhile), frames
     33 ms apart as playback would leave it; inline sorts it on the drawing thread. Both
-    leave the colour effects (reveal, grade) to the preprocess pass, as the viewport does;
-    'colour on the CPU' evaluates the whole stack on the CPU and uploads its splats (the
-    viewport before that, and what a final render evaluates). The last row has the colour
-    effects disabled: displace alone, the CPU's share of the stack."""
+    leave the whole stack to the preprocess pass, as the viewport does (the CPU displaces
+    the centres it sorts by; the pass adds the noise layers to its rest centres itself);
+    'displace on the CPU' leaves it the colour effects alone and uploads the displaced
+    centres (the viewport until the displace was deferred); 'all on the CPU' evaluates the
+    whole stack on the CPU and uploads its splats (what a final render evaluates)."""
     import gpu
 
     from bench.viewport_bench import HEIGHT, WIDTH
@@ -241,26 +242,25 @@ def scrub_table(collect, runs: int, effects) -> None:
 
     from addon.blender.viewport.effect_rows import on_gpu
 
+    def colour_only(p):
+        return type(p) is not Displace and on_gpu(p)
+
     ensure_gpu()
     print("\nScrubbing through Blender, the stack of three: collect_items + viewport prepare (upload)")
     off = gpu.types.GPUOffScreen(WIDTH, HEIGHT, format="RGBA16F")
-    modes = (("draw handler (worker sort)", True, (), on_gpu, 16.0),
-             ("inline sort", False, (), on_gpu, None),
-             ("cold noise, worker sort", True, (), on_gpu, 33.0),
-             ("colour on the CPU, worker", True, (), None, None),
-             ("displace alone, worker sort", True, (effects[0], effects[2]), None, None))
-    for label, background, disabled, defer, goal in modes:
-        for effect in disabled:
-            effect.enabled = False
-
-        def scrub(frame, defer=defer, cold=label.startswith("cold")):
+    modes = (("draw handler (worker sort)", True, on_gpu, 16.0),
+             ("inline sort", False, on_gpu, None),
+             ("cold noise, worker sort", True, on_gpu, 33.0),
+             ("displace on the CPU, worker", True, colour_only, None),
+             ("cold, displace on the CPU", True, colour_only, None),
+             ("all on the CPU, worker", True, None, None))
+    for label, background, defer, goal in modes:
+        def scrub(frame, defer=defer, cold="cold" in label):
             if cold:  # displace's noise layers made afresh each frame
                 noise.FIELDS.clear()
             return collect(frame, defer)
 
         wall = _scrub_row(off, scrub, runs, label, background)
-        for effect in disabled:
-            effect.enabled = True
         if goal is not None:
             print(f"goal: {label.split(',')[0]}, a scrubbed frame from evaluation to upload, <= {goal:.0f} ms"
                   f" on the drawing thread: {wall:.1f} ms -> {'met' if wall <= goal else 'MISSED'}")

@@ -56,14 +56,16 @@ def _texels(texture, channels: int) -> np.ndarray:
     return np.array(texture.read().to_list(), np.float32).reshape(-1, channels)
 
 
-def records(items, camera) -> tuple[np.ndarray, dict]:
-    """(drawn splat indices, {record name: (drawn, 4)}) of one viewport draw."""
-    _, renderer = draw_offscreen(items, camera)
-    gpu_ = renderer.gpu
+def records(items, camera, renderer=None) -> tuple[np.ndarray, dict]:
+    """(drawn splat indices, {record name: (drawn, 4)}) of one viewport draw (in `renderer`,
+    left open, where given)."""
+    _, drew = draw_offscreen(items, camera, renderer=renderer)
+    gpu_ = drew.gpu
     n = gpu_.order_count
     order = _texels(gpu_.textures["order"], 1)[:n, 0].astype(np.int64)
     recs = {name: _texels(t, 4)[:n] for name, t in gpu_.records.items()}
-    renderer.close()
+    if renderer is None:
+        drew.close()
     return order, recs
 
 

@@ -11,13 +11,13 @@ tests call. It keeps, between calls:
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ...core.scene import RenderItem
 from . import packing
-from .effect_rows import effect_rows, morph_of
+from .effect_rows import displace_layers, displace_of, effect_rows, morph_of
 from .effect_textures import EffectTextures
 from .pack_cache import PackCache, data_key, joined, pos_source, positions_key_of, reads_rest, upload_if_new
 from .staging import ALL, ALPHA, PosStage, ShapeStage
@@ -112,6 +112,7 @@ class ViewportRenderer:
         self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
         self.effects = EffectTextures()
         self.worker = SortWorker(on_sorted) if worker else None
+        self.layers: dict = {}  # per object: its deferred displace's noise layers last frame
 
     def close(self) -> None:
         if self.worker is not None:
@@ -123,6 +124,7 @@ class ViewportRenderer:
         self.pos, self.shape = PosStage(), ShapeStage()
         self.effects = EffectTextures()
         self.last_valid, self.next_valid = {}, {}
+        self.layers = {}
 
     # -- data ---------------------------------------------------------------
     def _texture(self, name, items, per_splat, fields, build, extra=()):
@@ -309,7 +311,7 @@ class ViewportRenderer:
             self.stats.total = self.stats.drawn = 0
             return None
         displays = [displays[k] for k in keep] if displays is not None else [ItemDisplay()] * len(keep)
-        items = [items[k] for k in keep]
+        items = self._settled([items[k] for k in keep])
         if self.gpu is None:
             self.gpu = SplatGPU()
         uploaded = self.gpu.uploaded
@@ -326,6 +328,25 @@ class ViewportRenderer:
         self.stats.gpu_bytes = self.gpu.nbytes
         self.stats.frame_bytes = self.gpu.uploaded - uploaded
         return const
+
+    def _settled(self, items) -> list:
+        """The items, a deferred displace whose noise layers were not those of the last frame
+        left out: its centres are displaced in the item already (deferral.drawn_splats), and
+        uploading them costs half of uploading two new layers, which pays only from the
+        second frame that blends them (scrubbing within a layer, playing). So a jump
+        across the timeline costs what it did before the displace was deferred."""
+        seen, out = {}, []
+        for item in items:
+            d = displace_of(item.deferred)
+            if d is not None:
+                name = item.key[0] if item.key else None
+                seen[name] = layers = displace_layers(d)
+                last = self.layers.get(name)
+                if last is None or any(a is not b for a, b in zip(layers, last)):
+                    item = replace(item, deferred=tuple(e for e in item.deferred if e is not d))
+            out.append(item)
+        self.layers = seen
+        return out
 
     def _update_objects(self, items, displays, l2c, ortho) -> None:
         rows, effects, first = [], [], 0

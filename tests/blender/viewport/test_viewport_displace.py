@@ -75,6 +75,7 @@ def _records(capture, stack, time):
     """Records of the CPU copy, the deferred copy and, for scale, the deferred copy drawn
     without its displace, of the splats all three draw (their indices, and the stack's
     and the CPU part's splats, last)."""
+    from addon.blender.viewport import ViewportRenderer
     from addon.blender.viewport.effect_rows import on_gpu
 
     splats, world, camera = capture
@@ -85,7 +86,12 @@ def _records(capture, stack, time):
     drawn, handed = drawn_splats(part, deferred, time)
     items = [RenderItem(cpu, world, key=("cpu",)),
              RenderItem(drawn, world, key=("gpu",), deferred=handed, rest_positions=splats.positions)]
-    want, got = by_splat(*records(items, camera), cpu.count)
+    renderer = ViewportRenderer()
+    records(items, camera, renderer)  # new layers: the CPU's centres drawn (_settled)
+    assert "displace_a" not in renderer.gpu.textures
+    want, got = by_splat(*records(items, camera, renderer), cpu.count)  # the same: the pass's
+    assert {"displace_a", "displace_b"} <= set(renderer.gpu.textures)
+    renderer.close()
     still = [d for d in handed if type(d.params) is not Displace]
     unmoved, _ = by_splat(*records([RenderItem(part, world, key=("still",), deferred=tuple(still),
                                                rest_positions=splats.positions)], camera), cpu.count)

@@ -246,17 +246,19 @@ def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, te
         reveal.progress = progress
         reveal.keyframe_insert("progress", frame=frame)
 
-    # the pos texture holds the centres before displace moves them, where the reveal
-    # measures: no "rest" texture; frames 8 and 12 blend the same two noise layers
-    gpu = _scrub(bpy, (8, 12), [Reveal, Displace, Grade], {"displace_a", "displace_b"}, centres=False)
+    # frames 8, 10 and 12 blend the same two noise layers: frame 8 draws the CPU's centres
+    # (new layers), frame 10 uploads the layers, frame 12 neither; the pos texture holds
+    # the centres before displace moves them, where the reveal measures: no "rest" texture
+    gpu = _scrub(bpy, (8, 10, 12), [Reveal, Displace, Grade], {"displace_a", "displace_b"},
+                 centres=False)
     assert "rest" not in gpu.textures
 
 
 def _scrub(bpy, frames, kinds, textures, centres=True):
-    """Scrub from frames[0] to frames[1] in one viewport renderer: the viewport's
-    evaluation defers `kinds`, the renderer holds `textures`, the later frame uploads
-    the centres (where `centres`), the order and the table alone, and draws what the
-    whole stack evaluated on the CPU draws. Returns the renderer's gpu half."""
+    """Scrub through `frames` in one viewport renderer: the viewport's evaluation defers
+    `kinds`, the renderer holds `textures` before the last frame, which uploads the
+    centres (where `centres`), the order and the table alone, and draws what the whole
+    stack evaluated on the CPU draws. Returns the renderer's gpu half."""
     from addon.blender.evaluate.items import collect_items
     from addon.blender.viewport import ViewportRenderer, packing
     from addon.blender.viewport.effect_rows import on_gpu
@@ -271,13 +273,15 @@ def _scrub(bpy, frames, kinds, textures, centres=True):
     camera = framing_camera(first[0], 160, 120)
     renderer = ViewportRenderer()
     draw_offscreen(first, camera, renderer=renderer)
+    for frame in frames[1:-1]:
+        draw_offscreen(at(frame, on_gpu), camera, renderer=renderer)
     assert textures <= set(renderer.gpu.textures)
-    later = at(frames[1], on_gpu)
+    later = at(frames[-1], on_gpu)
     image, _ = draw_offscreen(later, camera, renderer=renderer)
     pos = 16 * packing.padded(later[0].splats.count) if centres else 0
     order = 4 * packing.padded(renderer.stats.drawn)  # the splats in view
     assert pos + order <= renderer.stats.frame_bytes < pos + order + 4096  # (pos), order, table
-    whole = at(frames[1], None)
+    whole = at(frames[-1], None)
     assert not whole[0].deferred
     assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
     assert psnr(image, draw_offscreen(first, camera)[0]) < 40.0  # the frames differ

@@ -5,8 +5,9 @@ object's row holds its amount, and the target's own textures hold the rest.
 Scrubbing a reveal or a grade on the CPU rewrites and re-uploads the opacity, scale and
 colour of every splat each frame, and a displace its centres; here a frame uploads a few
 texels of parameters instead, and shaders/viewport_effects.glsl applies the numpy kernels'
-arithmetic (core/effects/reveal.py, grade.py, displace.py) to the base splats. Which effects may leave the stack is
-core/effects/deferral.py's rule; final renders and Blender's own engines never defer.
+arithmetic (core/effects/reveal.py, grade.py, displace.py) to the base splats. Which
+effects may leave the stack is core/effects/deferral.py's rule; final renders and
+Blender's own engines never defer.
 
 Rows, EFFECT_TEXELS texels of RGBA32F per effect, after the objects' rows in the same
 table texture:
@@ -49,9 +50,9 @@ def _finite(*values) -> bool:
 def on_gpu(params) -> bool:
     """Whether the preprocess pass can apply this effect: reveal and grade (by height,
     distance or noise), displace, and a morph of any pairing (deferral.drawn_splats hands
-    over its ends in order). Amount and shrink within [0, 1] (the panel's ranges) keep the base
-    scales an upper bound of what a colour effect draws, which the sort's culling radius
-    relies on."""
+    over its ends in order). Amount and shrink within [0, 1] (the panel's ranges) keep the
+    base scales an upper bound of what a colour effect draws, which the sort's culling
+    radius relies on."""
     if not (getattr(params, "active", False) and 0.0 < params.amount <= 1.0):
         return False
     if not _finite(np.asarray(params.frame, np.float64)):

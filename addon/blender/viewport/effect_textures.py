@@ -93,7 +93,8 @@ class EffectTextures:
         """A deferred displace's two noise layers (the core's memoized rows at the rest
         centres, the same arrays until the layer changes), a texel a splat in each of
         displace_a and displace_b; zeros for objects without one."""
-        layers = [None if d is None else displace_layers(d) for d in map(displace_of, (i.deferred for i in items))]
+        deferred = [displace_of(i.deferred) for i in items]
+        layers = [None if d is None else displace_layers(d) for d in deferred]
         if all(pair is None for pair in layers):
             for name in packing.DISPLACE:
                 self._drop(gpu, name)
@@ -102,8 +103,8 @@ class EffectTextures:
         seconds = 0.0
         for slot, name in enumerate(packing.DISPLACE):
             rows = [None if pair is None else pair[slot] for pair in layers]
-            got = [packs.get(name, i, (r,), lambda i=i, r=r: packing.pack_xyz(r, i.splats.count), key=i.base_key)
-                   for i, r in zip(items, rows)]
+            got = [packs.get(name, i, (r,), lambda i=i, r=r: packing.pack_xyz(r, i.splats.count),
+                             key=i.base_key) for i, r in zip(items, rows)]
             seconds += self._put(gpu, name, got, lambda got=got: joined(got, counts, 4))
         return seconds
 

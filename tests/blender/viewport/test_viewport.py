@@ -29,14 +29,6 @@ PSNR_MIN = 60.0
 
 
 @pytest.fixture(scope="module")
-def gpu_ready(_bpy_registered):
-    from testing.headless import ensure_gpu
-
-    ensure_gpu()
-    return True
-
-
-@pytest.fixture(scope="module")
 def scene(testdata):
     items, centre = two_objects(testdata)
     camera = camera_for(centre)

@@ -13,14 +13,6 @@ from addon.core.splats import ARRAYS
 from testing.viewport_scene import blob, camera_for, draw_offscreen, overlay_drawn, psnr, two_objects
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(_bpy_registered):
-    from testing.headless import ensure_gpu
-
-    ensure_gpu()
-    return True
-
-
 def _items():
     a = RenderItem(blob(300, 1, seed=1, centre=(0, 0, 0), spread=0.3), key=("a", 1))
     b = RenderItem(blob(200, 0, seed=2, centre=(0.2, 0, 0), spread=0.3), key=("b", 1))

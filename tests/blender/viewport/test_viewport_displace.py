@@ -30,13 +30,6 @@ MOVED_PX = 0.05   # what most splats' displacement moves their centres by, at le
 
 
 @pytest.fixture(scope="module")
-def gpu_ready(_bpy_registered):
-    from testing.headless import ensure_gpu
-
-    ensure_gpu()
-
-
-@pytest.fixture(scope="module")
 def capture(testdata):
     full = read(testdata / "guitar.ply")
     assert full.axes is not None  # the capture's own axes: not an identity scene

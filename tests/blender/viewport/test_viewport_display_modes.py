@@ -35,14 +35,6 @@ COLOUR_TOL = 1e-4   # float32 SH and grading against float64: ~1e-6; 8-bit steps
 EDGE_TOL = 1e-3     # relative: an ellipse edge within this is a float32 coin toss
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(_bpy_registered):
-    from testing.headless import ensure_gpu
-
-    ensure_gpu()
-    return True
-
-
 @pytest.fixture(scope="module", params=["test64.ply", "guitar.ply"])
 def capture(request, testdata):
     s = read(testdata / request.param)

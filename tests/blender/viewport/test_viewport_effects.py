@@ -39,13 +39,6 @@ def colour_only(p) -> bool:
 
 
 @pytest.fixture(scope="module")
-def gpu_ready(_bpy_registered):
-    from testing.headless import ensure_gpu
-
-    ensure_gpu()
-
-
-@pytest.fixture(scope="module")
 def capture(testdata):
     full = read(testdata / "guitar.ply")
     keep = np.arange(0, full.count, 3)

@@ -16,14 +16,6 @@ from testing.viewport_scene import blob, draw_offscreen, psnr
 TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4, "RGBA16": 8, "RG32F": 8, "R16F": 2}
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(_bpy_registered):
-    from testing.headless import ensure_gpu
-
-    ensure_gpu()
-    return True
-
-
 def _camera(distance=3.0):
     return simple_camera(64, 48, 50.0, look_at((0.0, -distance, 0.4), (0.0, 0.0, 0.0)), near=0.05, far=50.0)
 

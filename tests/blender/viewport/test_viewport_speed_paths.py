@@ -17,14 +17,6 @@ from addon.core.scene import RenderItem
 from testing.viewport_scene import camera_for, draw_offscreen, psnr, two_objects
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(_bpy_registered):
-    from testing.headless import ensure_gpu
-
-    ensure_gpu()
-    return True
-
-
 def _with_undrawable(splats, seed: int):
     """A copy with some splats no renderer draws (zero quaternion, non-finite scale)."""
     rng = np.random.default_rng(seed)

@@ -13,7 +13,8 @@
 // orthographic view direction + the object's first splat index; the object's deferred
 // effects (first texel, count, whether they read rest_tex), whose rows follow the objects',
 // and a deferred morph's amount (0: none; the target's data in the morph_* textures). A
-// deferred displace moves pos_tex's centre (then the stack's input) by its noise layers.
+// deferred morph or displace moves pos_tex's centre (then its source end's, or the stack's
+// input) itself: towards the target's centre, or by the displace's noise layers.
 // Everything is camera-relative: t = cam_from_local * (p - eye), eye split hi + lo.
 
 const int OBJECT_TEXELS = 10;
@@ -111,7 +112,7 @@ vec4 morph_slerp(vec4 a, vec4 b, float turn, float t)
 }
 
 // A deferred morph (core/effects/deferral.py): this splat blended with the target's splat
-// of the same index, as morph.blend does; the centre is already blended (pos_tex).
+// of the same index, as morph.blend does (the centre: main).
 void morph_splat(int splat, float t, inout float opacity, inout vec3 scale, inout vec4 q,
                  inout vec3 dc)
 {
@@ -155,8 +156,12 @@ void main()
         if (!sl_is_finite(opacity)) return;  // NaN: packing found the target's splat undrawable
     }
     vec3 centre_local = p.xyz;
+    if (effects.w > 0.0) {  // morph.blend's lerp of the centres, from the source end's
+        vec3 b = fetch(morph_centres_tex, splat).xyz;
+        centre_local = (b - p.xyz) * effects.w + p.xyz;
+    }
     if (effects.y > 0.0) {
-        centre_local = displaced(int(effects.x), int(effects.y), p.xyz, splat);
+        centre_local = displaced(int(effects.x), int(effects.y), centre_local, splat);
         vec3 rest = effects.z > 0.5 ? fetch(rest_tex, splat).xyz : p.xyz;
         apply_effects(int(effects.x), int(effects.y), centre_local, rest, splat - int(ortho_dir.w),
                       opacity, scale, dc);

@@ -76,6 +76,12 @@ def morph_of(deferred: tuple):
     return deferred[0].params if deferred and type(deferred[0].params) is Morph else None
 
 
+def mover_of(deferred: tuple):
+    """The deferred effect whose centres the preprocess pass moves (a displace or a morph:
+    Deferred.centres set), or None."""
+    return next((d for d in deferred if d.centres is not None), None)
+
+
 def displace_of(deferred: tuple):
     """The deferred displace (a Deferred carrying its layers), or None."""
     return next((d for d in deferred if type(d.params) is Displace), None)

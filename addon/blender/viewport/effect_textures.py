@@ -41,8 +41,9 @@ class EffectTextures:
         return time.perf_counter() - start
 
     def _morph(self, items, degrees, values, gpu, packs) -> float:
-        """A deferred morph's target data, in the pos, shape and sh layouts (uploaded once:
-        the target's arrays are the same every frame); zeros for objects without one."""
+        """A deferred morph's target data, in the pos, shape and sh layouts, and its centres
+        (uploaded once: the target's arrays are the same every frame); zeros for objects
+        without one."""
         targets = [morph_of(i.deferred) for i in items]
         if all(t is None for t in targets):
             for name in packing.MORPH:
@@ -52,7 +53,8 @@ class EffectTextures:
         builds = {
             "morph_pos": (4, lambda t, g, q: packing.pack_morph_target(q, t.target, g)),
             "morph_shape": (packing.SHAPE_VALUES, lambda t, g, q: packing.pack_shape(t.target)),
-            "morph_sh": (values, lambda t, g, q: packing.pack_sh(t.target, g, values))}
+            "morph_sh": (values, lambda t, g, q: packing.pack_sh(t.target, g, values)),
+            "morph_centres": (4, lambda t, g, q: packing.pack_xyz(t.target.positions, t.target.count))}
         seconds = 0.0
         for name, (per_splat, build) in builds.items():
             got = [packs.get(name, i, _morph_sources(t) + (i.splats.rotations,), extra=(g, values),

@@ -33,7 +33,7 @@ DATA = ("pos", "shape", "sh", "order")
 RECORDS = {"rec_pos": "RGBA32F", "rec_conic": "RGBA32F", "rec_color": "RGBA32F"}
 FORMATS = {"pos": "RGBA32F", "shape": "RGBA16F", "sh": "RGBA16F", "order": "R32F", "objects": "RGBA32F",
            "rest": "RGBA32F", "fields": "R32F", "morph_pos": "RGBA32F", "morph_shape": "RGBA16F", "morph_sh": "RGBA16F",
-           "displace_a": "RGBA32F", "displace_b": "RGBA32F"}
+           "morph_centres": "RGBA32F", "displace_a": "RGBA32F", "displace_b": "RGBA32F"}
 OPTIONAL = ("rest", "fields", *MORPH, *DISPLACE)  # textures only some scenes need
 TEXEL_BYTES = {"RGBA32F": 16, "RGBA16F": 8, "R32F": 4}
 

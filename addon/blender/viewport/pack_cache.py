@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from ...core.scene import RenderItem
 from . import packing
-from .effect_rows import displace_of
+from .effect_rows import mover_of
 
 
 class PackCache:
@@ -44,18 +44,21 @@ def positions_key_of(item: RenderItem):
 
 def reads_rest(item: RenderItem) -> bool:
     """Whether a deferred effect of the item measures centres other than those of its pos
-    texture (with a deferred displace, that holds the rest centres: pos_source)."""
+    texture (where the preprocess pass moves the centres, that holds the ones they start
+    from: pos_source; for a displace, the rest centres)."""
     return (item.rest_positions is not None and item.rest_positions is not item.splats.positions
-            and displace_of(item.deferred) is None and any(d.at_rest for d in item.deferred))
+            and mover_of(item.deferred) is None and any(d.at_rest for d in item.deferred))
 
 
 def pos_source(item: RenderItem) -> tuple:
-    """(key, centres) of the pos texture: the drawn centres, or where a deferred displace
-    moves them in the preprocess pass, its input (the stack's input centres: the same
-    array from frame to frame while scrubbing, so uploaded once)."""
-    if displace_of(item.deferred) is None:
+    """(key, centres) of the pos texture: the drawn centres, or where the preprocess pass
+    moves them (a deferred displace or morph), those it moves them from (the stack's input,
+    or a morph's source end: the same array from frame to frame while scrubbing, so
+    uploaded once)."""
+    mover = mover_of(item.deferred)
+    if mover is None:
         return positions_key_of(item), item.splats.positions
-    return ("rest", item.base_key), item.rest_positions
+    return ("moved from", item.base_key), mover.centres
 
 
 def data_key(item: RenderItem, fields: tuple):

@@ -36,9 +36,9 @@ WIDTH = 4096          # texels per row of every data texture
 MAX_HEIGHT = 16384    # the smallest GL_MAX_TEXTURE_SIZE Blender supports
 SHAPE_VALUES = 9
 OBJECT_TEXELS = 10    # per-object table row: see object_rows
-# a deferred morph's target, in the layouts of pos, shape and sh (the shader reads those
-# in their place where no object morphs)
-MORPH = {"morph_pos": "pos", "morph_shape": "shape", "morph_sh": "sh"}
+# a deferred morph's target, in the layouts of pos, shape and sh, and its centres (the
+# shader reads those in their place where no object morphs)
+MORPH = {"morph_pos": "pos", "morph_shape": "shape", "morph_sh": "sh", "morph_centres": "pos"}
 # a deferred displace's two noise layers at the rest centres, a texel a splat (xyz, w 0)
 DISPLACE = {"displace_a": "pos", "displace_b": "pos"}
 HALF_MAX = 65504.0

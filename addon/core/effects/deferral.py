@@ -14,8 +14,9 @@ sorts by them), exactly as the kernel does. A morph between sets of other sizes 
 only where its ends are gathered once while scrubbing (`_ends_kept`).
 A displace is deferred when everything after it is and nothing before it moves the splats:
 its input centres are then the stack's input, the same array every frame, and the renderer
-adds the noise layers' blend to them itself. The CPU still displaces the centres the
-renderer sorts by (`drawn_splats`), but the renderer's copy of the centres stays as it was.
+adds the noise layers' blend to them itself. The CPU still moves the centres the renderer
+sorts by, for a morph too (`drawn_splats`), but the renderer's copy of the centres they
+start from stays as it was.
 
 `split_stack` decides; `apply_deferred` is the readable CPU meaning of the result, which
 tests pin to evaluate_stack bit for bit.
@@ -39,8 +40,12 @@ COLOUR = frozenset({"opacities", "scales", "sh_dc"})
 class Deferred:
     params: object      # a kernel's params (a colour kind's, a Displace's or a Morph's)
     at_rest: bool       # its field is measured at the stack's input centres, not the final ones
-    # a deferred displace, as drawn_splats hands it over: its noise layers at the frame's
-    # time, ((weight, (N, 3) rows), ...) as displace.noise_layers gives them
+    # as drawn_splats hands a displace or a morph over: the centres the renderer moves
+    # itself (the handed splats hold the moved ones, to sort by): a displace's input, the
+    # morph's source end
+    centres: object = field(default=None, compare=False)
+    # and a displace's noise layers at the frame's time, ((weight, (N, 3) rows), ...) as
+    # displace.noise_layers gives them
     layers: tuple = field(default=(), compare=False)
 
 
@@ -86,16 +91,17 @@ def drawn_splats(splats: SplatSet, deferred: tuple, time: float = 0.0) -> tuple[
     deferred morph (the first deferred effect) both become its ends (morph.aligned), paired
     in order: the source end with the centres blended as the kernel blends them (the
     renderer sorts by them), and the morph's target the target end. A deferred displace
-    moves the handed centres as the kernel does (the renderer sorts by them too, and draws
-    them from its input's: `splats.positions`, then the stack's input) and carries its
-    noise layers at `time`. Otherwise the CPU part's splats and the deferred effects as
-    they are."""
+    moves the handed centres as the kernel does (the renderer sorts by them too) and
+    carries its noise layers at `time`. Either carries the centres it moves (Deferred.
+    centres), which the renderer keeps while scrubbing. Otherwise the CPU part's splats
+    and the deferred effects as they are."""
     if not deferred:
         return splats, deferred
     displace = next((k for k, d in enumerate(deferred) if type(d.params) is Displace), None)
     if displace is not None:
         p = deferred[displace].params
-        layered = replace(deferred[displace], layers=tuple(noise_layers(splats.positions, p, time)))
+        layered = replace(deferred[displace], centres=splats.positions,
+                          layers=tuple(noise_layers(splats.positions, p, time)))
         moved = apply_effect(splats, p, time, splats.positions)
         return moved, deferred[:displace] + (layered,) + deferred[displace + 1:]
     if type(deferred[0].params) is not Morph:
@@ -104,7 +110,8 @@ def drawn_splats(splats: SplatSet, deferred: tuple, time: float = 0.0) -> tuple[
     ends = aligned(splats, p.target, pairing_for(splats, p))
     drawn = replace(ends.source, positions=morph_positions(ends.source.positions,
                                                            ends.target.positions, p.amount))
-    morph = replace(deferred[0], params=replace(p, target=ends.target, pairing=ends.pairing))
+    morph = replace(deferred[0], params=replace(p, target=ends.target, pairing=ends.pairing),
+                    centres=ends.source.positions)
     return drawn, (morph,) + deferred[1:]
 
 

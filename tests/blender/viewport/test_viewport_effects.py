@@ -219,7 +219,7 @@ def _field_near(splats, part, params, index, df) -> np.ndarray:
     return near
 
 
-def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, testdata):
+def test_scrubbing_a_stack_in_blender_uploads_only_the_order(bpy_empty, gpu_ready, testdata):
     """Through Blender: a capture imported by the import operator, a reveal, a displace and
     a grade added by the effect operator. The viewport's evaluation defers all three, so a
     scrubbed frame uploads the order and the table, but no centres (the displace moves its
@@ -242,16 +242,15 @@ def test_scrubbing_a_stack_in_blender_uploads_no_colour(bpy_empty, gpu_ready, te
     # frames 8, 10 and 12 blend the same two noise layers: frame 8 draws the CPU's centres
     # (new layers), frame 10 uploads the layers, frame 12 neither; the pos texture holds
     # the centres before displace moves them, where the reveal measures: no "rest" texture
-    gpu = _scrub(bpy, (8, 10, 12), [Reveal, Displace, Grade], {"displace_a", "displace_b"},
-                 centres=False)
+    gpu = _scrub(bpy, (8, 10, 12), [Reveal, Displace, Grade], {"displace_a", "displace_b"})
     assert "rest" not in gpu.textures
 
 
-def _scrub(bpy, frames, kinds, textures, centres=True):
+def _scrub(bpy, frames, kinds, textures):
     """Scrub through `frames` in one viewport renderer: the viewport's evaluation defers
-    `kinds`, the renderer holds `textures` before the last frame, which uploads the
-    centres (where `centres`), the order and the table alone, and draws what the whole
-    stack evaluated on the CPU draws. Returns the renderer's gpu half."""
+    `kinds`, the renderer holds `textures` before the last frame, which uploads the order
+    and the table alone (no centres: the pass moves them itself), and draws what the
+    whole stack evaluated on the CPU draws. Returns the renderer's gpu half."""
     from addon.blender.evaluate.items import collect_items
     from addon.blender.viewport import ViewportRenderer, packing
     from addon.blender.viewport.effect_rows import on_gpu
@@ -271,9 +270,8 @@ def _scrub(bpy, frames, kinds, textures, centres=True):
     assert textures <= set(renderer.gpu.textures)
     later = at(frames[-1], on_gpu)
     image, _ = draw_offscreen(later, camera, renderer=renderer)
-    pos = 16 * packing.padded(later[0].splats.count) if centres else 0
     order = 4 * packing.padded(renderer.stats.drawn)  # the splats in view
-    assert pos + order <= renderer.stats.frame_bytes < pos + order + 4096  # (pos), order, table
+    assert order <= renderer.stats.frame_bytes < order + 4096  # the order and the table
     whole = at(frames[-1], None)
     assert not whole[0].deferred
     assert psnr(image, draw_offscreen(whole, camera)[0]) > 60.0
@@ -375,7 +373,9 @@ def _check_morph(w, g, index, source, target, cpu):
     assert ok.sum() > 0.5 * index.size
     w, g, slack = w[ok], g[ok], slack[ok]
     assert (np.abs(g[:, 7] - w[:, 7]) <= slack + 2.0 ** -22 * w[:, 7]).all(), "opacity"
-    np.testing.assert_array_equal(g[:, 0:3], w[:, 0:3], err_msg="centre, depth: the CPU's own blend")
+    # the pass blends the centres from the ends itself; the GPU may fuse the lerp's
+    # multiply-add, which moves a centre by ~1e-7 of itself (~1e-5 px here)
+    np.testing.assert_allclose(g[:, 0:3], w[:, 0:3], rtol=0, atol=1e-4, err_msg="centre, depth")
     # the covariance moves by 2 (scale + rotation error) of its largest eigenvalue, and
     # its inverse, the conic, by that over the conic's smallest eigenvalue, squared
     a, b, c = w[:, 4], w[:, 5], w[:, 6]
@@ -397,14 +397,14 @@ def _check_morph(w, g, index, source, target, cpu):
 @pytest.mark.parametrize("source_name, target_name", (("guitar.ply", "guitar.ply"),
                                                        ("guitar.ply", "test64.ply"),
                                                        ("test64.ply", "guitar.ply")))
-def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_ready, testdata,
+def test_scrubbing_a_morph_in_blender_uploads_only_the_order(bpy_empty, gpu_ready, testdata,
                                                                source_name, target_name):
     """Two captures imported by the import operator (the second turned and moved), a morph
     between them added by the effect operator, its amount keyframed: the viewport's
-    evaluation defers the morph, so a scrubbed frame uploads the blended centres, the
-    order and the table, and draws what the kernel's blend uploaded whole draws. Of the
-    same size (paired in order) and of others (90,854 and 64 splats, either way: the ends
-    morph.aligned gathers once)."""
+    evaluation defers the morph, so a scrubbed frame uploads the order and the table alone
+    (the pass blends the centres from the ends' own, uploaded once), and draws what the
+    kernel's blend uploaded whole draws. Of the same size (paired in order) and of others
+    (90,854 and 64 splats, either way: the ends morph.aligned gathers once)."""
     from addon.core.effects import Morph
 
     bpy = bpy_empty
@@ -419,7 +419,7 @@ def test_scrubbing_a_morph_in_blender_uploads_the_centres_alone(bpy_empty, gpu_r
         morph.amount = amount
         morph.keyframe_insert("amount", frame=frame)
 
-    _scrub(bpy, (6, 13), [Morph], {"morph_pos", "morph_shape", "morph_sh"})
+    _scrub(bpy, (6, 13), [Morph], {"morph_pos", "morph_shape", "morph_sh", "morph_centres"})
 
 
 def _imported(bpy, path):

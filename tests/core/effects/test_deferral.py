@@ -161,6 +161,7 @@ def _check_handed_displace(part, handed, want):
     from addon.core.effects.displace import noise_layers
 
     d = next(d for d in handed if type(d.params) is Displace)
+    assert d.centres is part.positions  # what the renderer moves: the stack's input
     assert [w for w, _ in d.layers] == [w for w, _ in noise_layers(part.positions, d.params, 1.3)]
     (w0, a), *rest = d.layers
     moved = a * np.float32(w0)
@@ -169,7 +170,7 @@ def _check_handed_displace(part, handed, want):
     moved *= np.float32(d.params.amount * d.params.amplitude)
     moved += part.positions
     np.testing.assert_array_equal(moved.view(np.uint32), want.positions.view(np.uint32))
-    assert all(not d.layers for d in handed if type(d.params) is not Displace)
+    assert all(not d.layers and d.centres is None for d in handed if type(d.params) is not Displace)
 
 
 def _check_handed_morph(part, rest, p, drawn, handed, want):
@@ -178,6 +179,7 @@ def _check_handed_morph(part, rest, p, drawn, handed, want):
     q = handed[0].params
     assert q.amount == p.amount and q.pairing.in_order and q.target.count == drawn.count
     source_end = aligned(part, p.target, p.pairing).source
+    assert handed[0].centres is source_end.positions  # what the renderer blends from
     for f in set(FIELDS) - {"positions"}:
         assert getattr(drawn, f) is getattr(source_end, f), f
         if p.pairing.in_order:

@@ -11,6 +11,7 @@ tests call. It keeps, between calls:
 from __future__ import annotations
 
 import time
+import weakref
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -112,7 +113,7 @@ class ViewportRenderer:
         self.last_valid, self.next_valid = {}, {}  # per object: the drawable mask last used
         self.effects = EffectTextures()
         self.worker = SortWorker(on_sorted) if worker else None
-        self.layers: dict = {}  # per object: its deferred displace's noise layers last frame
+        self.layers: dict = {}  # per object: its deferred displace's noise layers last frame (weak)
 
     def close(self) -> None:
         if self.worker is not None:
@@ -340,9 +341,12 @@ class ViewportRenderer:
             d = displace_of(item.deferred)
             if d is not None:
                 name = item.key[0] if item.key else None
-                seen[name] = layers = displace_layers(d)
+                layers = displace_layers(d)
+                # weak: last frame's layers, if the memo dropped them, go (their pages
+                # are the next ones' to reuse)
+                seen[name] = tuple(map(weakref.ref, layers))
                 last = self.layers.get(name)
-                if last is None or any(a is not b for a, b in zip(layers, last)):
+                if last is None or any(a is not b() for a, b in zip(layers, last)):
                     item = replace(item, deferred=tuple(e for e in item.deferred if e is not d))
             out.append(item)
         self.layers = seen

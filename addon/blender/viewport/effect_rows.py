@@ -64,8 +64,8 @@ def on_gpu(params) -> bool:
         return (params.field in _GRADE_FIELDS and params.mode in MODES
                 and 1 <= len(params.stops) <= MAX_STOPS and _finite(params.low, params.high)
                 and all(_finite(x, *rgb) for x, rgb in params.stops))
-    if type(params) is Displace:
-        return _finite(params.amplitude, params.frequency, params.speed)
+    if type(params) is Displace:  # at amplitude 0 the kernel returns its input: no layers
+        return params.amplitude != 0.0 and _finite(params.amplitude, params.frequency, params.speed)
     if type(params) is Morph:  # any pairing: the renderer is handed its ends in order
         return params.amount < 1.0 and params.target is not None
     return False

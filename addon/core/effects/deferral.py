@@ -26,6 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
+import numpy as np
+
 from ..splats import SplatSet
 from . import registry
 from .displace import Displace, noise_layers
@@ -43,7 +45,7 @@ class Deferred:
     # as drawn_splats hands a displace or a morph over: the centres the renderer moves
     # itself (the handed splats hold the moved ones, to sort by): a displace's input, the
     # morph's source end
-    centres: object = field(default=None, compare=False)
+    centres: np.ndarray | None = field(default=None, compare=False)
     # and a displace's noise layers at the frame's time, ((weight, (N, 3) rows), ...) as
     # displace.noise_layers gives them
     layers: tuple = field(default=(), compare=False)

@@ -62,6 +62,8 @@ def test_the_cases_meet_every_branch():
     assert {len(noise_layers(positions, p, t)) for p, t in CASES} == {1, 2}
     assert {np.sign(p.speed) for p, _ in CASES} == {-1.0, 0.0, 1.0}
     assert {p.amount < 1.0 for p, _ in CASES} == {True, False}
+    # nothing to move: left to the kernel, which returns its input without making layers
+    assert not on_gpu(Displace(amplitude=0.0)) and not on_gpu(Displace(amplitude=float("nan")))
 
 
 def _records(capture, stack, time):

@@ -87,9 +87,8 @@ vec3 displaced(int first, int count, vec3 p, int splat)
 }
 
 // Apply the colour effects among the `count` effects whose rows start at texel `first`, in
-// stack order. `at` and
-// `rest`: the splat's final and input centres (equal when nothing moved it); local_splat:
-// its index within its object.
+// stack order. `at` and `rest`: the splat's final and input centres (equal when nothing
+// moved it); local_splat: its index within its object.
 void apply_effects(int first, int count, vec3 at, vec3 rest, int local_splat, inout float opacity,
                    inout vec3 scale, inout vec3 dc)
 {

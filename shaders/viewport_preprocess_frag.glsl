@@ -151,14 +151,12 @@ void main()
     shape_of(shape_tex, splat, q, scale, dc);
     float opacity = p.w;
     vec4 effects = object_texel(obj, 9);
+    vec3 centre_local = p.xyz;
     if (effects.w > 0.0) {
         morph_splat(splat, effects.w, opacity, scale, q, dc);
         if (!sl_is_finite(opacity)) return;  // NaN: packing found the target's splat undrawable
-    }
-    vec3 centre_local = p.xyz;
-    if (effects.w > 0.0) {  // morph.blend's lerp of the centres, from the source end's
-        vec3 b = fetch(morph_centres_tex, splat).xyz;
-        centre_local = (b - p.xyz) * effects.w + p.xyz;
+        // morph.blend's lerp of the centres, from the source end's
+        centre_local = (fetch(morph_centres_tex, splat).xyz - p.xyz) * effects.w + p.xyz;
     }
     if (effects.y > 0.0) {
         centre_local = displaced(int(effects.x), int(effects.y), centre_local, splat);

@@ -9,14 +9,13 @@ what it writes and its field is measured at the same centres:
 - its field's centres are the stack's input (no mover before it, `at_rest`) or the final
   ones (no mover after it). Whether a field kind can be deferred is `on_gpu`'s to say.
 A morph is deferred when everything after it is: the renderer blends its two ends in order
-(morph.aligned), except the centres, which the CPU blends (`drawn_splats`: the renderer
-sorts by them), exactly as the kernel does. A morph between sets of other sizes is deferred
-only where its ends are gathered once while scrubbing (`_ends_kept`).
+(morph.aligned). A morph between sets of other sizes is deferred only where its ends are
+gathered once while scrubbing (`_ends_kept`).
 A displace is deferred when everything after it is and nothing before it moves the splats:
 its input centres are then the stack's input, the same array every frame, and the renderer
-adds the noise layers' blend to them itself. The CPU still moves the centres the renderer
-sorts by, for a morph too (`drawn_splats`), but the renderer's copy of the centres they
-start from stays as it was.
+adds the noise layers' blend to them itself. For either, the CPU still moves the centres as
+the kernel does, since the renderer sorts by them (`drawn_splats`), but the renderer's copy
+of the centres they start from stays as it was.
 
 `split_stack` decides; `apply_deferred` is the readable CPU meaning of the result, which
 tests pin to evaluate_stack bit for bit.

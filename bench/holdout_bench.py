@@ -28,7 +28,7 @@ where the plane cuts the figure's shell) is a splat whose centre lies within flo
 rounding of the plane (1e-7 relative) landing on the other side of it: a per-fragment
 read of the float32 map instead of the depth test had the same largest error (3 pixels
 over 1e-3 in the plane's window; the encoded depth test 7, adding splats within
-held_band of the plane, gl/composite.py: 4.3 um here).
+held_band of the plane, gl/holdout.py: 4.3 um here).
 
 A run on the shared 2-core llvmpipe VM (2026-11-26, 7 frames): colour 1260 ms without,
 0.870x with the mesh, 1.075x with it at the edge; + Z 1511 ms, 0.864x, 1.167x.

@@ -77,7 +77,7 @@ uniform bool u_capped_extent;  // quads cut at 3 sigma: keep the square (its cor
 // front of the surface: never one behind it (gl/composite.py, held_band).
 uniform vec2 u_holdout_enc;  // lo, scale: enc(z) = SL_ENC_BASE + (z - lo) * scale
 const float SL_ENC_BASE = 0.0625;
-const float SL_HOLDOUT_BIAS = 9.5367431640625e-07;  // 2^-20, composite.HOLDOUT_BIAS
+const float SL_HOLDOUT_BIAS = 9.5367431640625e-07;  // 2^-20, holdout.HOLDOUT_BIAS (gl/holdout.py)
 #endif
 
 // Half-axes (columns) of a rectangle holding the ellipse d^T conic d <= 2 ln(255 o), the

@@ -24,7 +24,7 @@ from addon.core.camera import equirect_camera, look_at, simple_camera
 from addon.core.holdout import Holdout
 from addon.core.renderer import CAPABILITIES, Renderer
 from addon.core.scene import RenderItem, RenderOptions
-from addon.gl import OffscreenRenderer, composite
+from addon.gl import OffscreenRenderer, composite, holdout
 from testing.gl_scenes import random_splats, world_for
 from testing.paths import REPO
 
@@ -64,8 +64,8 @@ def _twins():
     """(python name, python value, GLSL name) of every pinned pair."""
     pairs = [(name, getattr(render_constants, name), glsl)
              for name, glsl in render_constants.GLSL_TWINS.items()]
-    pairs += [("composite.ENC_BASE", composite.ENC_BASE, "SL_ENC_BASE"),
-              ("composite.HOLDOUT_BIAS", composite.HOLDOUT_BIAS, "SL_HOLDOUT_BIAS"),
+    pairs += [("holdout.ENC_BASE", holdout.ENC_BASE, "SL_ENC_BASE"),
+              ("holdout.HOLDOUT_BIAS", holdout.HOLDOUT_BIAS, "SL_HOLDOUT_BIAS"),
               ("sh.C0", sh.C0, "SL_SH_C0"), ("sh.C1", sh.C1, "SL_SH_C1"),
               ("colorspace._A", colorspace._A, "SL_SRGB_A"),
               ("colorspace._SRGB_KNEE", colorspace._SRGB_KNEE, "SL_SRGB_KNEE")]

@@ -28,8 +28,7 @@ from addon.core.holdout import Holdout, holdout_depth
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.splats import SplatSet
 from addon.gl import OffscreenRenderer
-from addon.gl.composite import depth_encoding, held_band
-from addon.gl.holdout import depth_bounds
+from addon.gl.holdout import depth_bounds, depth_encoding, held_band
 from testing.gl_scenes import assert_depth_matches, psnr
 from testing.holdout_scenes import guitar_scene, quad_mesh, triangulate
 

@@ -10,9 +10,9 @@ Render > Splatline > Meshes is Drawn gets:
   5.3 would draw them natively; older Blenders as points), nor collection instances that
   would bring splats in;
 - a **compositor** in the Splatline scene: each Render Layers node of the scene's own layers
-  goes through an Alpha Over node (MESH_OVER) whose background is a Render Layers node of the
-  mesh scene (MESH_NODE). With no compositor of the user's, Splatline makes one (marked
-  OWNED: Render Layers -> Alpha Over -> output) and removes it again when it is not needed.
+  goes through an Alpha Over node whose background is a Render Layers node of the
+  mesh scene (mesh_compositor.py). With no compositor of the user's, Splatline makes one
+  (Render Layers -> Alpha Over -> output) and removes it again when it is not needed.
 
 Blender renders a scene that a Render Layers node references as part of the frame, at the
 same frame, size and border: F12, `blender -b -a`, bpy.ops.render.render and
@@ -34,12 +34,10 @@ from .. import compat
 from ..props import render as render_props
 from ..data.pointcloud import COMPANION_MARK, is_splat_object
 from ..evaluate.holdout_geometry import is_surface
+from . import mesh_compositor
 
 ENGINE = "SPLATLINE"
 MARK = "splatline_meshes_of"          # on the mesh scene: the Splatline scene's name
-OWNED = "splatline_mesh_compositor"   # on a compositor tree Splatline made
-MESH_NODE = "Splatline Meshes"        # the Render Layers node of the mesh scene
-MESH_OVER = "Splatline Over Meshes"   # prefix of the Alpha Over nodes
 LIGHT_TYPES = frozenset({"LIGHT", "LIGHT_PROBE", "LIGHTPROBE"})
 # Render settings the mesh scene takes from the Splatline scene (size and border come from
 # the Splatline render itself; these decide its projection, blur and timing).
@@ -241,127 +239,16 @@ def _marker_key(pair):
     return pair[0], pair[1].name
 
 
-# ---- the compositor ----
-
-def _own_layer_nodes(tree, scene):
-    return [n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers"
-            and n.name != MESH_NODE and n.scene in (None, scene)]
-
-
-def _over_inputs(node):
-    """(background, foreground) inputs of an Alpha Over node: named in 5.x, both 'Image'
-    in 4.5 (inputs 1 and 2)."""
-    names = [s.name for s in node.inputs]
-    if "Background" in names:
-        return node.inputs["Background"], node.inputs["Foreground"]
-    return node.inputs[1], node.inputs[2]
-
-
-def _ensure_tree(scene):
-    tree = compat.active_compositor(scene)
-    if tree is not None:
-        return tree
-    _wrote_now()
-    if "compositing_node_group" in scene.bl_rna.properties:
-        tree, output = compat.new_compositor(scene, f"{scene.name} Splatline meshes")
-    else:
-        tree, output = compat.new_compositor(scene, "")
-    tree[OWNED] = True
-    layers = tree.nodes.new("CompositorNodeRLayers")
-    layers.scene = scene
-    layers.location = (-300, 0)
-    output.node.location = (300, 0)
-    tree.links.new(layers.outputs["Image"], output)
-    return tree
-
-
-def _attach(scene, companion) -> None:
-    tree = _ensure_tree(scene)
-    meshes = tree.nodes.get(MESH_NODE)
-    if meshes is None or meshes.bl_idname != "CompositorNodeRLayers":
-        _wrote_now()
-        meshes = tree.nodes.new("CompositorNodeRLayers")
-        meshes.name = meshes.label = MESH_NODE
-        meshes.location = (-300, -300)
-    if meshes.scene != companion:
-        _wrote_now()
-        meshes.scene = companion
-    _set(meshes, "layer", companion.view_layers[0].name)
-    for layers in _own_layer_nodes(tree, scene):
-        image = layers.outputs["Image"]
-        name = f"{MESH_OVER} {layers.name}"
-        over = tree.nodes.get(name)
-        if over is None:
-            _wrote_now()
-            over = tree.nodes.new("CompositorNodeAlphaOver")
-            over.name = over.label = name
-            over.location = (layers.location.x + 200, layers.location.y)
-        background, foreground = _over_inputs(over)
-        targets = [link.to_socket for link in image.links if link.to_node != over]
-        for link in list(image.links):
-            if link.to_node != over:
-                _wrote_now()
-                tree.links.remove(link)
-        for socket in targets:
-            tree.links.new(over.outputs[0], socket)
-        if not any(link.from_socket == image for link in foreground.links):
-            _wrote_now()
-            tree.links.new(image, foreground)
-        if not any(link.from_socket == meshes.outputs["Image"] for link in background.links):
-            _wrote_now()
-            tree.links.new(meshes.outputs["Image"], background)
-
-
-def _detach(scene) -> None:
-    tree = compat.active_compositor(scene)
-    if tree is None:
-        return
-    if tree.get(OWNED):
-        _wrote_now()
-        if "compositing_node_group" in scene.bl_rna.properties:
-            scene.compositing_node_group = None
-            if tree.users == 0:
-                bpy.data.node_groups.remove(tree)
-        else:  # 4.5: the tree is the scene's own; leave it empty, switched off, unmarked
-            tree.nodes.clear()
-            del tree[OWNED]
-            scene.use_nodes = False
-        return
-    for over in [n for n in tree.nodes if n.name.startswith(MESH_OVER)]:
-        _wrote_now()
-        _background, foreground = _over_inputs(over)
-        sources = [link.from_socket for link in foreground.links]
-        targets = [link.to_socket for link in over.outputs[0].links]
-        tree.nodes.remove(over)
-        for source in sources:
-            for socket in targets:
-                tree.links.new(source, socket)
-    meshes = tree.nodes.get(MESH_NODE)
-    if meshes is not None:
-        _wrote_now()
-        tree.nodes.remove(meshes)
-
+# ---- the compositor (mesh_compositor.py) ----
 
 def attached(scene) -> bool:
-    """Whether the scene's final frame holds the mesh layer: compositing on, its tree with
-    the mesh scene's Render Layers node under an Alpha Over."""
-    companion = mesh_scene(scene)
-    tree = compat.active_compositor(scene)
-    if companion is None or tree is None or not scene.render.use_compositing:
-        return False
-    meshes = tree.nodes.get(MESH_NODE)
-    return (meshes is not None and meshes.scene == companion and not meshes.mute
-            and any(n.name.startswith(MESH_OVER) and not n.mute for n in tree.nodes))
+    """Whether the scene's final frame holds the mesh layer (mesh_compositor.holds)."""
+    return mesh_compositor.holds(scene, mesh_scene(scene))
 
 
 def why_not_attached(scene) -> str:
     """One line for the render's warning: why the mesh layer is not in the frame."""
-    if not scene.render.use_compositing:
-        return "Output > Post Processing > Compositing is off"
-    if mesh_scene(scene) is None:
-        return "the scene has no mesh scene yet (it is made after an edit or on file load)"
-    return ("the compositor has no Render Layers node of the mesh scene under an Alpha Over "
-            f"(set Meshes to Drawn again, or add {MESH_NODE!r} yourself)")
+    return mesh_compositor.why_not(scene, mesh_scene(scene))
 
 
 # ---- sync ----
@@ -380,12 +267,12 @@ def sync(scene) -> bool:
     _wrote[0] = False
     objects = drawn_objects(scene) if wanted(scene) else {}
     if not has_surfaces(objects):
-        _detach(scene)
+        mesh_compositor.detach(scene, _wrote_now)
         return _wrote[0]
     companion = _ensure_scene(scene)
     _sync_objects(companion, objects)
     _sync_settings(scene, companion)
-    _attach(scene, companion)
+    mesh_compositor.attach(scene, companion, _wrote_now)
     return _wrote[0]
 
 

@@ -64,7 +64,7 @@ def guitar(bpy_empty, testdata, tmp_path):
 def test_set_up_without_asking(guitar):
     from addon.blender.compat import active_compositor
     from addon.blender.data.pointcloud import is_splat_object
-    from addon.blender.render import mesh_layer
+    from addon.blender.render import mesh_compositor, mesh_layer
 
     bpy, scene, _hs, objects, parts = guitar
     companion = scene.splatline.render.mesh_scene
@@ -73,7 +73,7 @@ def test_set_up_without_asking(guitar):
     assert set(companion.objects) == set(objects.values()), "the surfaces, no splats, no camera"
     assert not any(is_splat_object(o) for o in companion.objects)
     assert companion.camera == scene.camera and companion.world == scene.world
-    assert active_compositor(scene).get(mesh_layer.OWNED)
+    assert active_compositor(scene).get(mesh_compositor.OWNED)
     assert {"Composite.Combined", "ViewLayer.Combined", "ViewLayer.Depth"} <= parts.keys()
 
 
@@ -180,7 +180,7 @@ def test_hide_splats_only_and_ignored(guitar, tmp_path):
 
 def test_other_engines_get_no_mesh_layer_and_user_trees_are_kept(guitar):
     from addon.blender import compat
-    from addon.blender.render import mesh_layer
+    from addon.blender.render import mesh_compositor, mesh_layer
 
     bpy, scene, *_ = guitar
     scene.render.engine = "BLENDER_WORKBENCH"
@@ -195,8 +195,8 @@ def test_other_engines_get_no_mesh_layer_and_user_trees_are_kept(guitar):
     tree.links.new(glare.outputs[0], output)
     scene.render.engine = "SPLATLINE"
     bpy.context.view_layer.update()
-    assert mesh_layer.attached(scene) and not tree.get(mesh_layer.OWNED)
-    over = next(n for n in tree.nodes if n.name.startswith(mesh_layer.MESH_OVER))
+    assert mesh_layer.attached(scene) and not tree.get(mesh_compositor.OWNED)
+    over = next(n for n in tree.nodes if n.name.startswith(mesh_compositor.MESH_OVER))
     assert over.outputs[0].links[0].to_node == glare
     scene.render.engine = "CYCLES"
     bpy.context.view_layer.update()

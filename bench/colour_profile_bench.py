@@ -18,6 +18,10 @@ starting at the next row):
 - ET off: the full composite.
 - ten batches: the batch schedule before commit 4d5c3c9, doubling from 1/64 of the splats
   to 1/8 (nine breaks where the renderer's now makes four).
+- fetch stop (where the GL has GL_EXT_shader_framebuffer_fetch): each fragment first reads
+  its pixel and is dropped where the pixel's T is already below 1e-4, the per-pixel stop
+  the map between batches cannot make (bench/fragment_census.py counts the fragments it
+  could spare); blending as in full.
 Then the share of the frame's 4x4-pixel cells saturated at each break (map build), with
 the renderer's batches and with ten. Where the fragments go: bench/fragment_census.py.
 The instrumented copies (bench/shader_patch.py) are the benches' only: they patch the
@@ -35,7 +39,7 @@ from addon.core.scene import RenderOptions
 from addon.gl import composite
 from bench.final_frame_bench import COUNT, SIZE
 from bench.playbot_scene import scene
-from bench.shader_patch import CORNERS, FIRST, OUTSIDE, POSITION, TRIM, V, renderer_for
+from bench.shader_patch import CORNERS, F, FETCH, FIRST, OUTSIDE, POSITION, TRIM, V, has_fetch, renderer_for
 
 
 def ten_batches(visible: int, early_termination: bool):
@@ -59,18 +63,23 @@ ROWS = {
     "ET off": ((), False),
     "ten batches": ((), True, ten_batches),
 }
+OUT = "layout(location = 0) out vec4 frag;"
+ALPHA = "    float alpha = sl_alpha_whitened(v_w, v_colour.a);"
+FETCH_STOP = (((F, "#version 430\n", "#version 430\n" + FETCH), (F, OUT, OUT.replace(" out ", " inout ")),
+               (F, ALPHA, "    if (frag.a > 1.0 - 1.0e-4) discard;  // T < 1e-4 already\n" + ALPHA)), True)
 
 
 def timings(items, cam, runs: int) -> dict:
-    renderers = {name: renderer_for(row[0], items, cam) for name, row in ROWS.items()}
-    samples = {name: [] for name in ROWS}
+    rows = dict(ROWS, **({"fetch stop": FETCH_STOP} if has_fetch(items, cam) else {}))
+    renderers = {name: renderer_for(row[0], items, cam) for name, row in rows.items()}
+    samples = {name: [] for name in rows}
     plain = composite.batches
     try:
-        names = list(ROWS)
+        names = list(rows)
         for run in range(runs):
             # each run starts one row later: the first renderer of a run tends to be slower
             for name in names[run % len(names):] + names[:run % len(names)]:
-                _, early, *plan = ROWS[name]
+                _, early, *plan = rows[name]
                 composite.batches = plan[0] if plan else plain
                 t, c = time.perf_counter(), time.process_time()
                 renderers[name].render(items, cam, RenderOptions(early_termination=early))

@@ -9,6 +9,13 @@
 
 const int EFFECT_TEXELS = 8;
 
+// texel `texel` of a data texture (sizes.x texels a row); the preprocess pass, which
+// includes this file first, reads its own textures through it too
+vec4 fetch(sampler2D tex, int texel)
+{
+    return texelFetch(tex, ivec2(texel % sizes.x, texel / sizes.x), 0);
+}
+
 vec4 effect_texel(int row, int k)
 {
     return texelFetch(object_tex, ivec2(row + k, 0), 0);
@@ -20,7 +27,7 @@ float effect_field(int row, int field, vec3 at, int local_splat)
 {
     if (field == 2) {
         int texel = int(effect_texel(row, 1).x) + local_splat;
-        return texelFetch(field_tex, ivec2(texel % sizes.x, texel / sizes.x), 0).x * 0.5 + 0.5;
+        return fetch(field_tex, texel).x * 0.5 + 0.5;
     }
     vec4 r2 = effect_texel(row, 3);
     float z = ((at.x * r2.x + at.y * r2.y) + at.z * r2.z) + r2.w;
@@ -77,9 +84,8 @@ vec3 displaced(int first, int count, vec3 p, int splat)
         int row = first + e * EFFECT_TEXELS;
         if (int(effect_texel(row, 0).x) != 3) continue;
         vec4 w = effect_texel(row, 1);
-        ivec2 at = ivec2(splat % sizes.x, splat / sizes.x);
-        vec3 c = texelFetch(displace_a_tex, at, 0).xyz * w.x;
-        c += texelFetch(displace_b_tex, at, 0).xyz * w.y;
+        vec3 c = fetch(displace_a_tex, splat).xyz * w.x;
+        c += fetch(displace_b_tex, splat).xyz * w.y;
         c *= w.z;
         return p + c;
     }

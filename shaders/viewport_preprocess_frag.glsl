@@ -19,11 +19,6 @@
 
 const int OBJECT_TEXELS = 10;
 
-vec4 fetch(sampler2D tex, int texel)
-{
-    return texelFetch(tex, ivec2(texel % sizes.x, texel / sizes.x), 0);
-}
-
 vec4 object_texel(int object, int k)
 {
     return texelFetch(object_tex, ivec2(object * OBJECT_TEXELS + k, 0), 0);

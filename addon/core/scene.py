@@ -33,8 +33,8 @@ class RenderItem:
                    renderer to apply itself (effects.deferral.Deferred, in order; a morph's
                    ends are `splats` and its target, in order, with the centres blended in
                    `splats` already; a displace's centres are moved in `splats` already, to
-                   sort by, and the renderer draws them from rest_positions); only the
-                   viewport asks for them
+                   sort by, and the renderer moves them itself from its Deferred.centres,
+                   the stack's input); only the viewport asks for them
     rest_positions the effects' input centres, which an `at_rest` deferred effect measures
     """
 

@@ -44,7 +44,7 @@ def main() -> None:
     import bpy
 
     from addon import register
-    from addon.blender.evaluate import sequence_frames as sequence_runtime
+    from addon.blender.data import sequence_source
     from addon.blender.evaluate.items import collect_items
     from addon.blender.data.sequences import import_sequence
     from addon.core.formats import read, write
@@ -69,14 +69,14 @@ def main() -> None:
 
         cold, ahead, cached = [], [], []
         for _ in range(RUNS):  # each run starts from an empty cache
-            sequence_runtime.shutdown()
+            sequence_source.shutdown()
             seq.cache_budget_mb, seq.read_ahead = 0, 0
             cold += _step_times(bpy, collect_items, frames)
-            sequence_runtime.shutdown()
+            sequence_source.shutdown()
             seq.cache_budget_mb, seq.read_ahead = 512, 4
             ahead += _step_times(bpy, collect_items, frames, WORK_S)
             cached += _step_times(bpy, collect_items, frames)
-        sequence_runtime.shutdown()
+        sequence_source.shutdown()
         rows += [("cold: budget 0, no read-ahead", cold),
                  (f"read-ahead 4, {WORK_S * 1000:.0f} ms work between steps", ahead),
                  ("cached: second pass", cached)]

@@ -26,7 +26,7 @@ def read_objects(path, names, axes=None) -> list:
         raise SplatFormatError(path, "no such file" if not os.path.exists(path) else "is not a regular file")
     bpy = start(path)  # an unreadable .blend: SplatFormatError naming it
     from ..blender.data.files import object_splats
-    from ..blender.data.pointcloud import is_splat_object
+    from ..blender.data.sources import is_splat_object
 
     found = sorted(o.name for o in bpy.data.objects if is_splat_object(o, with_splat_data=True))
     if not names:

@@ -47,29 +47,6 @@ def is_splat_data(data) -> bool:
     return isinstance(data, bpy.types.PointCloud) and BASE in data.attributes
 
 
-def is_splat_object(obj, *, with_splat_data: bool = False) -> bool:
-    """THE splat-object test, for every operator, panel and evaluator.
-
-    A POINTCLOUD object whose data has radiance:base (Splatline's imports and Blender 5.3's
-    own), or one playing a splat sequence: its splats come from files, so its own data may
-    hold none. with_splat_data=True keeps only the first kind, for callers that read the
-    object's own attributes (export, camera framing, the sequence operators)."""
-    if obj is None or obj.type != "POINTCLOUD" or COMPANION_MARK in obj.keys():
-        return False
-    # An evaluated object with a handoff (Blender 5.3+) shows its companion's geometry, which
-    # holds no attributes while it hides every splat: the object's own data decides.
-    if is_splat_data(obj.data) or is_splat_data(obj.original.data):
-        return True
-    return not with_splat_data and plays_sequence(obj)
-
-
-def plays_sequence(obj) -> bool:
-    """The object shows a splat sequence (frames read from files, evaluate/sequence_frames.py).
-    Read through getattr: data/ does not import props/, where the sequence settings live."""
-    sequence = getattr(getattr(obj, "splatline", None), "sequence", None)
-    return bool(getattr(sequence, "enabled", False))
-
-
 def schema(degree: int) -> list[tuple[str, str]]:
     """(name, data type) of every attribute a splat PointCloud of this SH degree holds."""
     names = [("position", "FLOAT_VECTOR"), ("scale", "FLOAT_VECTOR"), ("rotation", "QUATERNION"),

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core import effects as fx
 from ...core.effects.morph import MorphCache
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from ..data.transforms import evaluated, field_frame, relative_to, world_matrix
 
 TARGETS = MorphCache()  # SPLATS fields' splats, mapped and paired (cleared by items' handlers)

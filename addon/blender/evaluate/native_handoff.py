@@ -28,7 +28,7 @@ from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import SplatSet
 from ..data import evaluated_geometry as geometry
 from ..data import native
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object, source_of
 from .items import item_for, shown, splat_objects, stored_as_is
 from ..registration import app_handlers
 
@@ -36,10 +36,9 @@ SPLATLINE_ENGINE = "SPLATLINE"
 
 
 def changes_splats(item: RenderItem) -> bool:
-    """True when the item is not the object's stored splats as they are."""
-    base_key = item.key[1] if len(item.key) > 1 else None
-    from_files = isinstance(base_key, tuple) and base_key[:1] == ("sequence",)
-    return (len(item.key) > 2 or from_files or item.splat_scale != 1.0
+    """True when the look, crop or effects change the item's base splats (whether those are
+    the stored ones is the source table's to say)."""
+    return (len(item.key) > 2 or item.splat_scale != 1.0
             or item.opacity_scale != 1.0 or item.effective_sh_degree < item.splats.sh_degree
             or not np.array_equal(item.color_matrix, IDENTITY_COLOR))
 
@@ -83,7 +82,7 @@ class Handoff:
             return False
         item = item_for(obj_eval, depsgraph) if drawn else None
         if other is None:
-            if item is not None and not changes_splats(item):
+            if item is not None and source_of(obj_eval).stored and not changes_splats(item):
                 return False
             other = geometry.install(original)
         key = _written_key(item)

@@ -12,7 +12,7 @@ from bpy_extras.io_utils import ImportHelper
 from ...core.camtrack import read_track
 from ...core.errors import SplatFormatError
 from ..data.capture_camera import add_track_camera, set_frame_rate
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from ..registration import classes_and_menus
 
 

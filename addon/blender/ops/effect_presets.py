@@ -10,7 +10,7 @@ import bpy
 
 from ...core import effect_presets as core
 from ..data import effect_presets as library
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from ..data.presets import find_preset
 from .reporting import finish_reporting
 

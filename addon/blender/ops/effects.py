@@ -11,7 +11,7 @@ import re
 import bpy
 from bpy.props import EnumProperty
 
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from ..data.animation import channel_fcurves, remove_fcurve
 from ..props.effect import TYPES
 

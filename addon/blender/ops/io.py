@@ -10,7 +10,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper, poll_file_object_dro
 from ...core.errors import SplatFormatError
 from ...core.formats import table
 from ..data.files import export_object, import_file_with_report, object_axes
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from ..registration import classes_and_menus
 
 _AXES_ENUM = [

@@ -1,5 +1,5 @@
 """File > Import > Splat Sequence, File > Export > Evaluated Splats and the bake operator
-(the frame cache and its handlers are evaluate/sequence_frames.py's; the Object-properties
+(the frame cache and its handlers are data/sequence_source.py's; the Object-properties
 panel of a sequence is ui/object_panels.py's)."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from ...core.errors import SplatFormatError
 from ..data.sequences import (ALIGN_FILE_NUMBERS, ALIGN_SCENE_START, import_sequence,
                               remap_directories, restore_directories)
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from ..evaluate.bake import bake_frames, export_evaluated
 from ..props.sequence import _LOOP_ITEMS
 from ..registration import classes_and_menus

@@ -10,7 +10,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorPro
                        IntProperty, PointerProperty)
 
 from ...core.effects import registry
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from .look import tag_eval
 
 # (id, label, description, icon, number) per effect, and the field names the panel shows

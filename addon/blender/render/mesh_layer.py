@@ -32,7 +32,8 @@ import bpy
 
 from .. import compat
 from ..props import render as render_props
-from ..data.pointcloud import COMPANION_MARK, is_splat_object
+from ..data.pointcloud import COMPANION_MARK
+from ..data.sources import is_splat_object
 from ..evaluate.holdout_geometry import is_surface
 from . import mesh_compositor
 

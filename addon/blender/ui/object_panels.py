@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import bpy
 
-from ..data.pointcloud import is_splat_object
-from ..evaluate import sequence_frames as sequence_runtime
+from ..data.sources import is_splat_object
+from ..data import sequence_source
 from ..props.effect import FIELDS, TYPES
 
 
@@ -54,7 +54,7 @@ class OBJECT_PT_splatline_sequence(_ObjectPanel, bpy.types.Panel):
             col.prop(seq, "loop_mode")
             col.prop(seq, "cache_budget_mb")
             col.prop(seq, "read_ahead")
-            problem = sequence_runtime.report_for(obj)
+            problem = sequence_source.report_for(obj)
             if problem:
                 layout.label(text=problem, icon="ERROR")
         layout.operator("splatline.bake_sequence", icon="RENDER_ANIMATION")

@@ -8,7 +8,7 @@ Registered from blender/__init__._MODULES right after render/engine.py (render/ 
 import bpy
 
 from ..data import native
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 
 ENGINE = "SPLATLINE"
 # Blender's engines that render native splats (EEVEE is BLENDER_EEVEE_NEXT in 4.2 .. 4.5)

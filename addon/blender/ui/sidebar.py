@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 from ..props.effect import TYPES
 
 CATEGORY = "Splatline"

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object
 
 
 def _mb(n: int) -> str:

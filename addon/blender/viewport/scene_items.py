@@ -16,7 +16,7 @@ import bpy
 
 from ..evaluate import items as evaluate
 from ..data import native
-from ..data.pointcloud import is_splat_object
+from ..data.sources import is_splat_object, source_of
 from .effect_rows import on_gpu
 from .viewport_renderer import ItemDisplay
 
@@ -34,10 +34,11 @@ def display_for(obj) -> ItemDisplay:
 
 def time_dependent(obj) -> bool:
     """Objects whose splats may change with the frame without a geometry update."""
-    settings = getattr(obj, "splatline", None)
-    if settings is not None:
-        if len(getattr(settings, "effects", ())) or getattr(settings.sequence, "enabled", False):
-            return True
+    source = source_of(obj)
+    if source is not None and source.depends_on_time:
+        return True
+    if len(getattr(getattr(obj, "splatline", None), "effects", ())):
+        return True
     for owner in (obj, obj.data):
         anim = getattr(owner, "animation_data", None)
         if anim is not None and (anim.action is not None or len(anim.drivers)):

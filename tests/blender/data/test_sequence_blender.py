@@ -138,7 +138,7 @@ def _fcurves(obj):
 
 
 def test_missing_frame_holds_previous_and_is_reported_once(bpy_empty, frames, seq_import, caplog):
-    from addon.blender.evaluate import sequence_frames as sequence_runtime
+    from addon.blender.data import sequence_source
 
     paths, truth = frames
     obj = seq_import(paths[0].parent)
@@ -146,25 +146,25 @@ def test_missing_frame_holds_previous_and_is_reported_once(bpy_empty, frames, se
     caplog.set_level(logging.WARNING, logger="splatline.sequence")
     for _ in range(3):
         assert_same(item_of(bpy_empty, obj, 3).splats, truth[1])  # holds frame 2
-    report = sequence_runtime.report_for(obj)
+    report = sequence_source.report_for(obj)
     assert "frame_0003.ply" in report and "missing" in report and "holding frame 1" in report
     warnings = [r for r in caplog.records if "frame_0003.ply" in r.getMessage()]
     assert len(warnings) == 1
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])
-    assert sequence_runtime.report_for(obj) == ""
+    assert sequence_source.report_for(obj) == ""
     # a corrupt frame is held over as well, and its reason reported
     paths[3].write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nend_header\n")
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[1])
-    assert "frame_0004.ply" in sequence_runtime.report_for(obj)
+    assert "frame_0004.ply" in sequence_source.report_for(obj)
     # no earlier frame to hold: the next available one shows
     os.remove(paths[0])
     assert_same(item_of(bpy_empty, obj, 1).splats, truth[1])
-    assert "holding frame 1" in sequence_runtime.report_for(obj)
+    assert "holding frame 1" in sequence_source.report_for(obj)
     for path in paths:  # nothing left: an empty set, and the report says so
         if path.exists():
             os.remove(path)
     assert item_of(bpy_empty, obj, 2).splats.count == 0
-    assert "nothing to show" in sequence_runtime.report_for(obj)
+    assert "nothing to show" in sequence_source.report_for(obj)
 
 
 def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):
@@ -205,13 +205,13 @@ def test_blend_stores_the_path_only(bpy_empty, tmp_path, seq_import):
 
 
 def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_import):
-    from addon.blender.evaluate import sequence_frames as sequence_runtime
+    from addon.blender.data import sequence_source
 
     paths, truth = frames
     obj = seq_import(paths[0].parent)
     seq = obj.splatline.sequence
     item_of(bpy_empty, obj, 1)
-    rt = sequence_runtime.runtime()
+    rt = sequence_source.runtime()
     assert rt.read_ahead.wait_idle(30)
     mine = str(paths[0].parent)
     cached = {k[1] for k in rt.cache.keys() if k[0].startswith(mine)}
@@ -224,11 +224,11 @@ def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_impo
     # current frame of this object is left
     assert [k[1] for k in rt.cache.keys()] == [2] and rt.cache.nbytes == frame_bytes
     assert rt.read_ahead.running
-    sequence_runtime.unregister()  # the cache's owner: its unregister joins the thread
+    sequence_source.unregister()  # the cache's owner: its unregister joins the thread
     try:
         assert not any(t.name == "splatline-readahead" for t in threading.enumerate())
     finally:
-        sequence_runtime.register()
+        sequence_source.register()
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])  # a fresh runtime after re-register
 
 

@@ -1,4 +1,4 @@
-"""evaluate.BaseCache: edits of an animated capture reach the evaluated splats (no stale
+"""stored_splats.BaseCache: edits of an animated capture reach the evaluated splats (no stale
 frames), frame changes alone do not re-read it, and the viewport and a render thread can
 share the cache."""
 from __future__ import annotations
@@ -8,6 +8,7 @@ import threading
 
 import numpy as np
 
+from addon.blender.data import stored_splats
 from addon.blender.evaluate import items as evaluate
 from addon.blender.data.files import import_file
 from addon.core.splats import SplatSet
@@ -21,8 +22,8 @@ def _item(bpy, obj, frame):
 
 def _reads(monkeypatch):
     calls = []
-    real = evaluate.splats_from_pointcloud
-    monkeypatch.setattr(evaluate, "splats_from_pointcloud",
+    real = stored_splats.splats_from_pointcloud
+    monkeypatch.setattr(stored_splats, "splats_from_pointcloud",
                         lambda data, *a: calls.append(data.name) or real(data, *a))
     return calls
 
@@ -49,9 +50,9 @@ def test_editing_points_of_an_animated_capture_is_not_stale(bpy_empty, testdata,
 
 def test_prune_and_reads_on_two_threads(bpy_empty, monkeypatch):
     """The viewport (main thread) and a render thread both fill and prune the cache."""
-    cache = evaluate.BaseCache()
+    cache = stored_splats.BaseCache()
     tiny = SplatSet.allocate(1, 0)
-    monkeypatch.setattr(evaluate, "splats_from_pointcloud", lambda data: tiny.subset(np.arange(1)))
+    monkeypatch.setattr(stored_splats, "splats_from_pointcloud", lambda data: tiny.subset(np.arange(1)))
     monkeypatch.setattr(cache, "key", lambda obj, depsgraph: (("data", obj.name), obj.name, 0, 1, None, 0))
 
     class Fake:  # an evaluated object as get() sees it: key(), .data and no modifiers
@@ -108,9 +109,9 @@ def test_a_store_during_prune_waits_for_it(bpy_empty, monkeypatch):
     """The race above made deterministic: prune is held in the middle of walking the entries
     while another thread stores one. With the lock the store waits until the walk is done;
     without it the walk breaks ("dictionary changed size during iteration")."""
-    cache = evaluate.BaseCache()
+    cache = stored_splats.BaseCache()
     tiny = SplatSet.allocate(1, 0)
-    monkeypatch.setattr(evaluate, "splats_from_pointcloud", lambda data: tiny.subset(np.arange(1)))
+    monkeypatch.setattr(stored_splats, "splats_from_pointcloud", lambda data: tiny.subset(np.arange(1)))
     monkeypatch.setattr(cache, "key", lambda obj, depsgraph: (("data", obj.name), obj.name, 0, 1, None, 0))
     walking, stored = threading.Event(), threading.Event()
 

@@ -141,7 +141,7 @@ def test_hidden_animated_morph_target_follows_its_keyframes(bpy_empty):
 
 
 def test_base_cache_lets_deleted_data_go_and_shares_linked_duplicates(bpy_empty):
-    from addon.blender.evaluate import items as evaluate
+    from addon.blender.data import stored_splats
 
     bpy = bpy_empty
     doomed = add_object("doomed", grid_splats(seed=5))
@@ -150,15 +150,15 @@ def test_base_cache_lets_deleted_data_go_and_shares_linked_duplicates(bpy_empty)
     twin.location.x = 3.0
     items = {i.key[0]: i for i in items_at(bpy, 1)}
     assert items["doomed"].splats.positions is items[twin.name].splats.positions
-    assert ("data", "doomed") in evaluate._BASE.entries
+    assert ("data", "doomed") in stored_splats.CACHE.entries
     data = doomed.data
     bpy.data.objects.remove(doomed)
     bpy.data.objects.remove(twin)
     bpy.data.pointclouds.remove(data)
     add_object("fresh", grid_splats(seed=6))
     items_at(bpy, 1)  # reading the new object prunes the deleted data
-    assert ("data", "doomed") not in evaluate._BASE.entries
-    assert ("data", "fresh") in evaluate._BASE.entries
+    assert ("data", "doomed") not in stored_splats.CACHE.entries
+    assert ("data", "fresh") in stored_splats.CACHE.entries
 
 
 def test_item_keys_change_exactly_when_the_splats_can(bpy_empty):

@@ -260,23 +260,25 @@ def test_an_import_is_handed_to_blender_without_reading_its_splats(native_bpy, t
     """A fresh import with the default look: Blender draws its stored splats, and the
     handoff decides so from the settings alone (the base cache stays empty)."""
     from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.data import stored_splats
     from addon.blender.evaluate import items
 
     bpy = native_bpy
-    items._BASE.clear()
+    stored_splats.CACHE.clear()
     bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "guitar.ply"))
     obj = bpy.context.view_layer.objects.active
     bpy.context.scene.frame_set(2)
     bpy.context.view_layer.update()
     assert geometry.handoff_modifier(obj) is None
     assert items.stored_as_is(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
-    assert not items._BASE.entries  # nothing read back
+    assert not stored_splats.CACHE.entries  # nothing read back
 
 
 @pytest.mark.parametrize("tweak", sorted(TWEAKS))
 def test_a_changed_look_is_never_taken_as_stored(native_bpy, testdata, tweak):
     """On test64 (SH degree 3, so capping the degree cuts bands)."""
     from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.data import stored_splats
     from addon.blender.evaluate import items
     from addon.blender.evaluate.native_handoff import changes_splats
 
@@ -296,18 +298,19 @@ def test_a_changed_look_is_never_taken_as_stored(native_bpy, testdata, tweak):
 def test_an_effect_at_amount_zero_leaves_the_choice_to_the_evaluated_item(native_bpy, testdata):
     """Unsure from settings (an effect on, at amount 0): the item decides, and it is unchanged."""
     from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.data import stored_splats
     from addon.blender.evaluate import items
 
     bpy = native_bpy
     bpy.ops.import_scene.splatline_gaussians(filepath=str(testdata / "guitar.ply"))
     obj = bpy.context.view_layer.objects.active
-    items._BASE.clear()
+    stored_splats.CACHE.clear()
     effect = obj.splatline.effects.add()  # (the operator would evaluate it at amount 1 first)
     effect.type, effect.amount = "TWIST", 0.0
     bpy.context.view_layer.update()
     obj_eval = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
     assert not items.stored_as_is(obj_eval)
-    assert items._BASE.entries  # read: the settings alone could not tell
+    assert stored_splats.CACHE.entries  # read: the settings alone could not tell
     assert geometry.handoff_modifier(obj) is None
 
 
@@ -316,10 +319,11 @@ def test_blenders_own_import_is_left_to_blender_without_a_read(native_bpy, testd
     with Splatline's default settings the handoff leaves it to Blender unread; a look
     change then gives it a companion."""
     from addon.blender.data import evaluated_geometry as geometry
+    from addon.blender.data import stored_splats
     from addon.blender.evaluate import items
 
     bpy = native_bpy
-    items._BASE.clear()
+    stored_splats.CACHE.clear()
     assert bpy.ops.wm.ply_import(filepath=str(testdata / "guitar.ply")) == {"FINISHED"}
     obj = bpy.context.view_layer.objects.active
     assert obj.data.type == "GAUSSIAN_SPLAT"
@@ -328,7 +332,7 @@ def test_blenders_own_import_is_left_to_blender_without_a_read(native_bpy, testd
     bpy.context.view_layer.update()
     assert items.stored_as_is(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
     assert geometry.handoff_modifier(obj) is None
-    assert not items._BASE.entries
+    assert not stored_splats.CACHE.entries
     obj.splatline.look.exposure = 1.0
     bpy.context.view_layer.update()
     assert geometry.handoff_modifier(obj) is not None

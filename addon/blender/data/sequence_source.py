@@ -1,7 +1,8 @@
-"""The splats a sequence object shows at the depsgraph's frame, from disk through a cache.
+"""The sequence source: the splats a sequence object shows at the depsgraph's frame, from
+disk through a cache (its row of the source table, sources.py, is `ROW`).
 
-items.py calls `sequence_frame(obj_eval, depsgraph)`: the frame's splats and cache key, or
-None for an object that is not a sequence. Everything here is owned by one SequenceRuntime
+`sequence_frame(obj_eval, depsgraph)` gives the frame's splats and cache key, or None for an
+object that is not a sequence. Everything here is owned by one SequenceRuntime
 created on first use and torn down by `shutdown()` (this module's unregister), which also
 joins the read-ahead thread; nothing is stored on bpy. This module also owns the load_post
 handler that lets go of the previous file's objects.
@@ -21,6 +22,7 @@ from ...core import sequence as core_sequence
 from ...core.errors import SplatFormatError
 from ...core.formats import read
 from ...core.splats import ARRAYS, SplatSet
+from .source_kind import SourceFrame, SplatSource
 
 log = logging.getLogger("splatline.sequence")
 MB = 1 << 20
@@ -162,6 +164,13 @@ def resolved_directory(obj, settings) -> str:
     return bpy.path.abspath(settings.directory, library=obj.library)
 
 
+def plays_sequence(obj) -> bool:
+    """The object shows a splat sequence. Read through getattr: data/ does not import
+    props/, where the sequence settings live."""
+    sequence = getattr(getattr(obj, "splatline", None), "sequence", None)
+    return bool(getattr(sequence, "enabled", False))
+
+
 def sequence_frame(obj_eval, depsgraph) -> SequenceFrame | None:
     """The frame a sequence object shows at the depsgraph's time; None if not a sequence."""
     settings = getattr(getattr(obj_eval, "splatline", None), "sequence", None)
@@ -178,6 +187,16 @@ def sequence_frame(obj_eval, depsgraph) -> SequenceFrame | None:
 def report_for(obj) -> str:
     """The object's last sequence problem ('' when its frames load fine), for the UI."""
     return "" if _runtime is None else _runtime.reports.get(obj.name_full, "")
+
+
+def _source_frame(obj_eval, depsgraph) -> SourceFrame:
+    frame = sequence_frame(obj_eval, depsgraph)
+    return SourceFrame(frame.splats, ("sequence", obj_eval.original.name_full) + tuple(frame.key))
+
+
+# Each frame is a file of its own: splats change with the frame, but each sits still in it.
+ROW = SplatSource("SEQUENCE", "Splat Sequence", plays_sequence, _source_frame,
+                  depends_on_time=True, moves_splats=False)
 
 
 @bpy.app.handlers.persistent

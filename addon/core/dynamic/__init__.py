@@ -1,0 +1,1 @@
+"""Dynamic captures: splats that move, turn and fade by themselves (4D Gaussian splats)."""

@@ -4,10 +4,11 @@ Each concern defines its own sub-group in its own module; this one only nests th
 """
 import bpy
 
-from . import (display as display_props, effect as effect_props, look as look_props,
-               render as render_props, sequence as sequence_props)
+from . import (display as display_props, dynamic as dynamic_props, effect as effect_props,
+               look as look_props, render as render_props, sequence as sequence_props)
 
-_SUBMODULES = (display_props, look_props, effect_props, sequence_props, render_props)
+_SUBMODULES = (display_props, look_props, effect_props, sequence_props, dynamic_props,
+               render_props)
 
 
 class SplatlineObjectSettings(bpy.types.PropertyGroup):
@@ -16,6 +17,7 @@ class SplatlineObjectSettings(bpy.types.PropertyGroup):
     effects: bpy.props.CollectionProperty(type=effect_props.Effect)
     active_effect: bpy.props.IntProperty(default=0, min=0)
     sequence: bpy.props.PointerProperty(type=sequence_props.SequenceSettings)
+    dynamic: bpy.props.PointerProperty(type=dynamic_props.DynamicSettings)
 
 
 class SplatlineSceneSettings(bpy.types.PropertyGroup):

@@ -60,6 +60,31 @@ class OBJECT_PT_splatline_sequence(_ObjectPanel, bpy.types.Panel):
         layout.operator("splatline.bake_sequence", icon="RENDER_ANIMATION")
 
 
+class OBJECT_PT_splatline_dynamic(_ObjectPanel, bpy.types.Panel):
+    bl_label = "Dynamic Capture"
+    bl_idname = "OBJECT_PT_splatline_dynamic"
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return is_splat_object(obj) and obj.splatline.dynamic.enabled
+
+    def draw(self, context):
+        dynamic = context.object.splatline.dynamic
+        layout = self.layout
+        layout.use_property_split = True
+        unit = "s" if dynamic.unit == "SECONDS" else " segments"
+        layout.label(text=f"{dynamic.model}: {dynamic.time_start:g} to {dynamic.time_end:g}{unit}")
+        col = layout.column()
+        col.prop(dynamic, "start_frame")
+        col.prop(dynamic, "frames_per_unit")
+        col.prop(dynamic, "mode")
+        col.prop(dynamic, "use_capture_time")
+        sub = col.column()
+        sub.active = dynamic.use_capture_time
+        sub.prop(dynamic, "capture_time")
+
+
 class SPLATLINE_UL_effects(bpy.types.UIList):
     def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_prop, _index=0):
         icon = next(t[3] for t in TYPES if t[0] == item.type)
@@ -129,8 +154,8 @@ class SPLATLINE_PT_effects(_ObjectPanel, bpy.types.Panel):
             layout.prop(effect, name)
 
 
-classes = (OBJECT_PT_splatline_sequence, SPLATLINE_UL_effects, SPLATLINE_PT_look,
-           SPLATLINE_PT_look_crop, SPLATLINE_PT_effects)
+classes = (OBJECT_PT_splatline_sequence, OBJECT_PT_splatline_dynamic, SPLATLINE_UL_effects,
+           SPLATLINE_PT_look, SPLATLINE_PT_look_crop, SPLATLINE_PT_effects)
 
 
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -10,6 +10,7 @@ _MODULES = (
     "props.root",         # Object.splatline and Scene.splatline property groups
     "evaluate.items",     # the base-splat cache and the handlers that invalidate it
     "data.sequence_source",  # the sequence frame cache, its read-ahead thread and handler
+    "data.dynamic_source",   # the dynamic captures read back from their PointClouds
     "evaluate.native_handoff",   # evaluated splats into the geometry Blender's engines draw (5.3+)
     "ops.io",             # import/export operators, menus, FileHandler
     "ops.camera_track",   # File > Import > Splat Camera Track

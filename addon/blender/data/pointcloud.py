@@ -72,6 +72,19 @@ def _set(attributes, name, data_type, values: np.ndarray):
     attribute.data.foreach_set(value_key(attribute), flat)
 
 
+_FLOAT_TYPES = {1: "FLOAT", 2: "FLOAT2", 3: "FLOAT_VECTOR", 4: _FLOAT4_TYPE}
+
+
+def write_floats(attributes, name: str, values: np.ndarray) -> None:
+    """A point attribute of 1 to 4 floats a point (a dynamic capture's own fields)."""
+    width = 1 if values.ndim == 1 else values.shape[1]
+    _set(attributes, name, _FLOAT_TYPES[width], values)
+
+
+def read_floats(attributes, name: str, width: int, count: int) -> np.ndarray:
+    return _get(attributes, name, width, count)
+
+
 def _get(attributes, name, width, count) -> np.ndarray:
     attribute = attributes[name]
     out = np.empty(count * width, np.float32)

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import contextlib
 
-from . import sequence_source, stored_splats
+from . import dynamic_source, sequence_source, stored_splats
 from .pointcloud import COMPANION_MARK
 from .source_kind import SplatSource
 
 # Most specific first: a sequence object may also hold splat attributes of its own.
-ROWS: list[SplatSource] = [sequence_source.ROW, stored_splats.ROW]
+ROWS: list[SplatSource] = [sequence_source.ROW, dynamic_source.ROW, stored_splats.ROW]
 
 
 def source_of(obj) -> SplatSource | None:

@@ -41,6 +41,9 @@ class DynamicSettings(bpy.types.PropertyGroup):
     time_end: bpy.props.FloatProperty(
         update=_tag, name="Capture End", default=1.0, options=set(),
         description="The last moment of the capture, in its own time unit")
+    cutoff: bpy.props.FloatProperty(
+        update=_tag, name="Cut-Off", default=0.0, options={"HIDDEN"},
+        description="The .4dgs visibility cut-off of a splat's temporal weight")
     start_frame: bpy.props.FloatProperty(
         update=_tag, name="Start Frame", default=1.0,
         description="Scene frame at which the capture shows its first moment")

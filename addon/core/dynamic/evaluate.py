@@ -47,7 +47,8 @@ def _opacity(capture: DynamicCapture, a: int, b: int, t: float):
 def alive_mask(capture: DynamicCapture, t: float) -> np.ndarray:
     a, b, local = _segment(capture, t)
     mask = np.zeros(capture.count, bool)
-    mask[a:b] = _opacity(capture, a, b, local)[2]
+    with np.errstate(invalid="ignore", over="ignore"):
+        mask[a:b] = _opacity(capture, a, b, local)[2]
     return mask
 
 
@@ -87,6 +88,12 @@ def _rotations(capture: DynamicCapture, rows, dt: np.ndarray):
 
 
 def evaluate(capture: DynamicCapture, t: float) -> Frame:
+    # 0 * inf at a zero width is handled in _opacity; far-Delta overflow is counted below
+    with np.errstate(invalid="ignore", over="ignore"):
+        return _evaluate(capture, t)
+
+
+def _evaluate(capture: DynamicCapture, t: float) -> Frame:
     a, b, local = _segment(capture, t)
     dt, opacity, alive = _opacity(capture, a, b, local)
     keep = np.flatnonzero(alive)

@@ -68,6 +68,7 @@ class DynamicCapture:
 
     positions   (N, 3)     centre at Delta = 0 (the rest centre)
     motion      (N, D, 3)  polynomial motion: term d multiplies Delta^(d+1); D = 3 spacetime, 1 otherwise
+                           (stored as D contiguous planes: motion_planes)
     rotations   (N, 4)     w, x, y, z; spacetime/linear: as stored (normalised after adding omega Delta)
     omega       (N, 4)     angular term (spacetime), or None (zero)
     scales      (N, 3)     linear scales
@@ -108,6 +109,7 @@ class DynamicCapture:
     source: str | None = None  # the reader's name for what it read ("spacetime-lite PLY", ...)
 
     def __post_init__(self):
+        self.motion = motion_planes(self.motion)
         if self.segment_offsets is None:
             self.segment_offsets = np.array([0, self.count], np.int64)
         self._inv_scale = None  # the fast path's 1 / t_scale, made on first use
@@ -190,6 +192,15 @@ class DynamicCapture:
         if offsets[0] != 0 or offsets[-1] != n or np.any(np.diff(offsets) < 0):
             raise ValueError(f"DynamicCapture.segment_offsets {offsets} do not split {n} splats")
         return self
+
+
+def motion_planes(motion: np.ndarray) -> np.ndarray:
+    """motion (N, D, 3) laid out as D contiguous (N, 3) planes (a transposed view), so the
+    fast path's motion[:, d] is one contiguous array. The values and shape are unchanged."""
+    planes = motion.transpose(1, 0, 2)
+    if planes.flags.c_contiguous:
+        return motion
+    return np.ascontiguousarray(planes).transpose(1, 0, 2)
 
 
 def _expect(name, arr, shape, dtype=np.float32) -> None:

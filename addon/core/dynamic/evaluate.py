@@ -1,8 +1,9 @@
 """The float32 fast path: a DynamicCapture at time t as a SplatSet of the splats alive then.
 
-Cost: one pass over the segment's splats in float32 for the opacity (a subtract, a multiply,
-an exp), then gathers of the kept splats only. Arrays that need no change (scales, colours
-and, when every splat is kept, the whole set) are read-only views of the capture's own.
+Cost: contiguous float32 passes over the segment's splats (opacity, centres by Horner's rule
+over the motion planes, rotations), then one compress per array to the kept splats. When
+every splat is kept, the arrays that need no change (scales, colours) are read-only views of
+the capture's own.
 bench/dynamic_bench.py measures it against np.argsort of as many depths.
 """
 from __future__ import annotations
@@ -13,6 +14,7 @@ from ..splats import SplatSet
 from .capture import ALPHA_MIN, DynamicCapture, Frame
 
 _F32 = np.float32
+_TINY = np.float32(np.finfo(np.float32).tiny)
 
 
 def _segment(capture: DynamicCapture, t: float) -> tuple[int, int, float]:
@@ -58,33 +60,49 @@ def _read_only(arr: np.ndarray) -> np.ndarray:
     return view
 
 
-def _centres(capture: DynamicCapture, rows, dt: np.ndarray) -> np.ndarray:
-    """positions + sum_d motion[d] Delta^(d+1), by Horner's rule, float32."""
+def _centres(capture: DynamicCapture, rows: slice, dt: np.ndarray) -> np.ndarray:
+    """positions + sum_d motion[d] Delta^(d+1), by Horner's rule, float32. motion[:, d] is a
+    contiguous plane (capture.motion_planes), so each term is one pass."""
     motion = capture.motion[rows]
     d = dt[:, None]
-    acc = motion[:, -1].copy()
+    acc = motion[:, -1] * d
     for term in range(motion.shape[1] - 2, -1, -1):
-        acc *= d
         acc += motion[:, term]
-    acc *= d
+        if term:
+            acc *= d
+    if motion.shape[1] > 1:
+        acc *= d
     acc += capture.positions[rows]
     return acc
 
 
-def _rotations(capture: DynamicCapture, rows, dt: np.ndarray):
-    """(unit quaternions, usable mask): rotations + omega Delta, normalised. Scaled by the
-    largest component first, so neither a tiny nor a huge quaternion over- or underflows."""
+def _rotations(capture: DynamicCapture, rows: slice, dt: np.ndarray):
+    """(unit quaternions, usable mask): rotations + omega Delta, normalised. A quaternion
+    whose squared norm under- or overflows float32 is scaled by its largest component first."""
     q = capture.rotations[rows]
-    if capture.omega is not None:
-        q = q + capture.omega[rows] * dt[:, None]
-    else:
-        q = q.copy()
-    big = np.abs(q).max(axis=1)
-    ok = (big > 0) & np.isfinite(big)
-    q /= np.where(ok, big, _F32(1))[:, None]
-    norm = np.sqrt(np.einsum("ij,ij->i", q, q))
-    q /= np.where(ok, norm, _F32(1))[:, None]
+    q = q + capture.omega[rows] * dt[:, None] if capture.omega is not None else q.copy()
+    norm2 = np.einsum("ij,ij->i", q, q)
+    plain = (norm2 > _TINY) & (norm2 < np.inf)
+    ok = plain.copy()
+    odd = np.flatnonzero(~plain)
+    if odd.size:  # rare: rescale those rows, then they normalise like the rest
+        big = np.abs(q[odd]).max(axis=1)
+        fine = (big > 0) & np.isfinite(big)
+        q[odd[fine]] /= big[fine, None]
+        ok[odd[fine]] = True
+        norm2[odd] = np.einsum("ij,ij->i", q[odd], q[odd])
+    norm = np.sqrt(norm2, out=norm2)
+    norm[~ok] = 1.0
+    q /= norm[:, None]
     return q, ok
+
+
+def _finite_rows(arr: np.ndarray) -> np.ndarray:
+    """Rows without NaN/inf: their sum is finite (a sum that overflows flags a centre
+    within a factor 3 of float32's limit, which the renderer could not use anyway)."""
+    total = arr[:, 0] + arr[:, 1]
+    total += arr[:, 2]
+    return np.isfinite(total)
 
 
 def evaluate(capture: DynamicCapture, t: float) -> Frame:
@@ -94,37 +112,37 @@ def evaluate(capture: DynamicCapture, t: float) -> Frame:
 
 
 def _evaluate(capture: DynamicCapture, t: float) -> Frame:
+    """Centres and rotations of the whole segment (contiguous passes), then one compress of
+    each array to the kept splats: cheaper than gathering inputs when most are alive."""
     a, b, local = _segment(capture, t)
+    rows = slice(a, b)
     dt, opacity, alive = _opacity(capture, a, b, local)
-    keep = np.flatnonzero(alive)
-    everyone = keep.shape[0] == b - a
-    rows = slice(a, b) if everyone else keep + a
-    dtk = dt if everyone else dt[keep]
-    centres = _centres(capture, rows, dtk)
+    centres = _centres(capture, rows, dt)
+    finite = _finite_rows(centres)
     if capture.model == "4dgs":  # fixed orientation, unit since construction
-        rotations, ok = capture.rotations[rows], None
-        rotations = _read_only(rotations) if everyone else rotations
+        rotations, ok = _read_only(capture.rotations[rows]), None
     else:
-        rotations, ok = _rotations(capture, rows, dtk)
-    finite = np.isfinite(centres).all(axis=1)
-    good = finite if ok is None else finite & ok
-    zero = 0 if ok is None else int(np.count_nonzero(~ok))
-    pick = (lambda arr: _read_only(arr[rows])) if everyone else (lambda arr: arr[rows])
-    splats = SplatSet(
-        positions=centres, scales=pick(capture.scales), rotations=rotations,
-        opacities=opacity if everyone else opacity[keep],
-        sh_dc=pick(capture.sh_dc), sh_rest=pick(capture.sh_rest), axes=capture.axes)
-    index = np.arange(a, b, dtype=np.int64) if everyone else keep.astype(np.int64) + a
-    if not good.all():
-        splats, index = splats.subset(good), index[good]
-    return Frame(t=t, splats=splats, index=index, zero_rotations=zero,
-                 overflow=int(np.count_nonzero(~finite)))
+        rotations, ok = _rotations(capture, rows, dt)
+    zero = 0 if ok is None else int(np.count_nonzero(alive & ~ok))
+    overflow = int(np.count_nonzero(alive & ~finite))
+    good = alive & finite if ok is None else alive & finite & ok
+    if good.all():
+        pick = lambda arr: _read_only(arr[rows])
+        index = np.arange(a, b, dtype=np.int64)
+    else:
+        pick = lambda arr: np.compress(good, arr[rows], axis=0)
+        index = np.flatnonzero(good).astype(np.int64) + a
+        centres, rotations, opacity = (np.compress(good, x, axis=0) for x in (centres, rotations, opacity))
+    splats = SplatSet(positions=centres, scales=pick(capture.scales), rotations=rotations, opacities=opacity,
+                      sh_dc=pick(capture.sh_dc), sh_rest=pick(capture.sh_rest), axes=capture.axes)
+    return Frame(t=t, splats=splats, index=index, zero_rotations=zero, overflow=overflow)
 
 
 def rest_set(capture: DynamicCapture) -> SplatSet:
     """Every splat at Delta = 0 with its base opacity, in capture order (rotations
     normalised; a zero one becomes the identity, as the static readers' 'fix' does)."""
-    q, ok = _rotations(capture, slice(None), np.zeros(capture.count, _F32))
+    with np.errstate(invalid="ignore", over="ignore"):
+        q, ok = _rotations(capture, slice(None), np.zeros(capture.count, _F32))
     q[~ok] = (1.0, 0.0, 0.0, 0.0)
     return SplatSet(positions=capture.positions.copy(), scales=capture.scales.copy(),
                     rotations=q, opacities=capture.opacities.copy(), sh_dc=capture.sh_dc.copy(),

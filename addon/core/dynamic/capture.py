@@ -28,10 +28,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..splats import AXES, AXES_RDF, SplatSet, sh_degree_for
+from . import evaluate
+from .frame import ALPHA_MIN, Frame  # noqa: F401  (re-exported)
 
 MODELS = ("spacetime", "linear", "4dgs")
 UNITS = ("segment", "seconds")
-ALPHA_MIN = 1.0 / 255.0  # opacity below which a splat at time t is left out
 FOURDGS_CUTOFF = 0.05    # the .4dgs marginal visibility threshold (fourdgs DEFAULT_CUTOFF)
 
 # per-splat arrays and their trailing shapes (None: the array may be absent)
@@ -39,27 +40,6 @@ _SHAPES = {
     "positions": (3,), "rotations": (4,), "scales": (3,), "opacities": (), "sh_dc": (3,),
     "t_center": (), "t_scale": (),
 }
-
-
-@dataclass
-class Frame:
-    """A capture evaluated at one time: what `DynamicCapture.at(t)` returns.
-
-    splats          the kept splats (activated, float32, the capture's axes)
-    index           (M,) int64: splats.positions[i] is capture splat index[i]; ascending
-    zero_rotations  splats left out because their rotation at t is the zero quaternion
-    overflow        splats left out because their centre at t overflows float32 (far Delta)
-    """
-
-    t: float
-    splats: SplatSet
-    index: np.ndarray
-    zero_rotations: int = 0
-    overflow: int = 0
-
-    @property
-    def alive(self) -> int:
-        return int(self.index.shape[0])
 
 
 @dataclass
@@ -140,18 +120,15 @@ class DynamicCapture:
 
     def rest(self) -> SplatSet:
         """Every splat at its rest pose (Delta = 0, base opacity), in capture order."""
-        from .evaluate import rest_set
-        return rest_set(self)
+        return evaluate.rest_set(self)
 
     def at(self, t: float) -> Frame:
         """The splats alive at capture time t (float32 fast path, evaluate.py)."""
-        from .evaluate import evaluate
-        return evaluate(self, float(t))
+        return evaluate.evaluate(self, float(t))
 
     def alive_mask(self, t: float) -> np.ndarray:
         """(N,) bool: which splats `at(t)` keeps (before the zero-rotation check)."""
-        from .evaluate import alive_mask
-        return alive_mask(self, float(t))
+        return evaluate.alive_mask(self, float(t))
 
     def segment_at(self, t: float) -> tuple[int, float]:
         """(segment k, time within it) for capture time t. One segment: (0, t), unclamped.

@@ -11,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..splats import SplatSet
-from .capture import ALPHA_MIN, DynamicCapture, Frame
+from .frame import ALPHA_MIN, Frame
+
+# annotations name DynamicCapture (capture.py), which imports this module
 
 _F32 = np.float32
 _TINY = np.float32(np.finfo(np.float32).tiny)

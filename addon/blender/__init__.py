@@ -13,6 +13,7 @@ _MODULES = (
     "data.dynamic_source",   # the dynamic captures read back from their PointClouds
     "evaluate.native_handoff",   # evaluated splats into the geometry Blender's engines draw (5.3+)
     "ops.io",             # import/export operators, menus, FileHandler
+    "ops.dynamic",        # File > Import > Dynamic Splat Capture
     "ops.camera_track",   # File > Import > Splat Camera Track
     "ops.sequence",       # splat sequence import, bake
     "ops.effects",        # effect stack operators

@@ -110,17 +110,41 @@ def _say_capture_fallback(obj, source) -> None:
           f"looking along its forward axis ({object_axes(obj)} frame), from as far as the other views", flush=True)
 
 
-def build(bpy, path, camera, frames=None, options: Framing = Framing()):
-    """Import `path` into the (empty) scene, add the camera; returns the scene."""
+def import_capture(bpy, path, **options):
+    """A static capture as import_file imports it, a dynamic (4D) one as one object that
+    plays by itself (only the axes option applies to it)."""
+    from ..blender.data.dynamic_files import import_dynamic
     from ..blender.data.files import import_file
+    from ..core.dynamic import is_dynamic_file
     from ..core.errors import SplatFormatError
 
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = frame_range(camera, frames)
     try:
-        obj = import_file(bpy.context, path)
+        if is_dynamic_file(path):
+            return import_dynamic(bpy.context, path, axes=options.get("axes", "AUTO"))
+        return import_file(bpy.context, path, **options)
     except OSError as exc:
         raise SplatFormatError(path, exc.strerror or str(exc)) from None
+
+
+def own_frames(obj) -> tuple[int, int] | None:
+    """The frames a dynamic capture's own time range spans on the timeline, or None."""
+    dynamic = obj.splatline.dynamic
+    if not dynamic.enabled:
+        return None
+    span = (dynamic.time_end - dynamic.time_start) * dynamic.frames_per_unit
+    start = int(round(dynamic.start_frame))
+    return start, start + max(int(round(span)), 0)
+
+
+def build(bpy, path, camera, frames=None, options: Framing = Framing()):
+    """Import `path` into the (empty) scene, add the camera; returns the scene. A dynamic
+    capture with no --frames or --seconds plays its own time range."""
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = frame_range(camera, frames)
+    obj = import_capture(bpy, path)
+    if frames is None and own_frames(obj) is not None:
+        frames = own_frames(obj)
+        scene.frame_start, scene.frame_end = frames
     scene.render.film_transparent = True  # a bare capture: alpha is the subject's coverage
     use_capture_colours(scene)
     try:

@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import sys
 
+from ..core.dynamic import is_dynamic_file
 from ..core.errors import SplatFormatError
 from ..core.formats import format_for_output, read_with_report, table, write
 from ..core.select import select
 from ..core.splats import AXES
 from ..core.validate import POLICIES, check_values
 from ..core.edit import merge
-from . import UsageError, edits
+from . import UsageError, dynamic_capture, edits
 from .capture_scene import is_blend
 from .writable import check_output_file
 
@@ -48,6 +49,17 @@ def configure(parser):
     parser.add_argument("--bad", choices=POLICIES, default="drop",
                         help="splats with NaN/Inf, zero quaternions or scales <= 0: drop (default), "
                              "fix (neutralise: invisible / identity rotation / |scale|) or error")
+    dynamic = parser.add_argument_group("dynamic (4D) captures")
+    dynamic.add_argument("--time", type=float, default=None, metavar="T",
+                         help="bake the capture at its time T (its own unit) to a static file")
+    dynamic.add_argument("--frames", default=None, metavar="A-B",
+                         help="bake scene frames A-B to a numbered sequence (the output names "
+                              "each file with #'s), the capture's time 0 at frame 1")
+    dynamic.add_argument("--fps", type=float, default=24.0,
+                         help="scene frame rate for --frames (default 24): a capture in seconds "
+                              "plays in real time, a Spacetime segment spans 50 frames")
+    dynamic.add_argument("--seconds-per-unit", type=float, default=None, metavar="S",
+                         help="to .4dgs from segment time: seconds one segment lasts (e.g. 50/30)")
     edits.add_arguments(parser)
 
 
@@ -97,6 +109,12 @@ def _check_inputs(args) -> None:
 
 
 def run(args) -> int:
+    dynamic = [p for p in args.input if is_dynamic_file(p)]
+    if dynamic:
+        return dynamic_capture.convert(args, dynamic[0])
+    if args.time is not None or args.frames is not None:
+        raise UsageError("--time and --frames bake a dynamic (4D) capture; "
+                         f"{', '.join(args.input)} holds none")
     fmt = format_for_output(args.output)  # fail on a bad output name or flag before reading
     edits.check(args)
     _check_inputs(args)

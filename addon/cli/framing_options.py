@@ -6,6 +6,7 @@ costs one line (exit 2) and nothing else.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 from . import UsageError
@@ -130,3 +131,15 @@ def _count(seconds: float, fps: float) -> int:
                          f"(Blender's limit)")
     return count
 
+
+def parse_frames(text: str) -> tuple[int, int]:
+    match = re.fullmatch(r"\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*)?", text or "")
+    if match is None:
+        raise UsageError(f"--frames {text!r}: expected A-B or a single frame")
+    start = int(match.group(1))
+    end = int(match.group(2)) if match.group(2) is not None else start
+    if end < start:
+        raise UsageError(f"--frames {text!r}: the range ends before it starts")
+    if start < 0 or end > MAX_FRAME:
+        raise UsageError(f"--frames {text.strip()}: frames must lie in 0-{MAX_FRAME} (Blender's limit)")
+    return start, end

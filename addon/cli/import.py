@@ -59,7 +59,7 @@ def run(args) -> int:
     from .capture_scene import add_camera, check_camera_options, frame_range, load_camera_arg, seconds_range
     camera = load_camera_arg(args.camera)  # a bad track fails before any import
     check_camera_options(camera, args.framing)
-    frames = seconds_range(camera, args.framing)
+    frames = explicit = seconds_range(camera, args.framing)
     if frames is None and camera == "orbit":
         frames = frame_range(camera)
     from .blender_session import save_blend, start
@@ -72,8 +72,21 @@ def run(args) -> int:
     if frames is not None:  # before the effect presets, which key from the start frame
         bpy.context.scene.frame_start, bpy.context.scene.frame_end = frames
 
+    from ..core.dynamic import is_dynamic_file
+    from .capture_scene import import_capture, own_frames
+
     imported = []
     for path in args.files:
+        if is_dynamic_file(path):  # a 4D capture: one object that plays by itself
+            obj = import_capture(bpy, path, axes=args.axes)
+            imported.append(obj)
+            span = own_frames(obj)
+            if explicit is None and len(args.files) == 1:  # the scene plays the capture
+                frames = span
+                bpy.context.scene.frame_start, bpy.context.scene.frame_end = frames
+            print(f"{path}: {len(obj.data.points)} dynamic splats ({obj.splatline.dynamic.model}), "
+                  f"frames {span[0]}-{span[1]}")
+            continue
         try:
             obj, report = import_file_with_report(
                 bpy.context, path, max_sh_degree=args.max_sh_degree, min_opacity=args.min_opacity,

@@ -6,8 +6,10 @@ import os
 
 import numpy as np
 
+from ..core.dynamic import is_dynamic_file
 from ..core.edit import statistics
 from ..core.formats import read_with_report, table
+from . import dynamic_capture
 
 
 def configure(parser):
@@ -42,7 +44,12 @@ def _fmt_vec(v) -> str:
 
 
 def run(args) -> int:
-    info = summarize(args.file, getattr(args, "stats", False), args.max_splats)
+    stats = getattr(args, "stats", False)
+    if is_dynamic_file(args.file):
+        info = dynamic_capture.summary(args.file, stats, args.max_splats)
+        print(json.dumps(info)) if args.json else dynamic_capture.print_summary(info)
+        return 0
+    info = summarize(args.file, stats, args.max_splats)
     if args.json:
         print(json.dumps(info))
         return 0

@@ -31,6 +31,7 @@ import time
 from . import UsageError, UserError
 from . import framing_options
 from .capture_scene import is_blend
+from .framing_options import parse_frames
 from .render_job import render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
@@ -85,19 +86,6 @@ def configure(parser):
                              "(repeatable)")
     parser.add_argument("--keep-stamp", action="store_true",
                         help="keep the render date, time, frame and host in the files' metadata (not reproducible)")
-
-
-def parse_frames(text: str) -> tuple[int, int]:
-    match = re.fullmatch(r"\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*)?", text or "")
-    if match is None:
-        raise UsageError(f"--frames {text!r}: expected A-B or a single frame")
-    start = int(match.group(1))
-    end = int(match.group(2)) if match.group(2) is not None else start
-    if end < start:
-        raise UsageError(f"--frames {text!r}: the range ends before it starts")
-    if start < 0 or end > MAX_FRAME:
-        raise UsageError(f"--frames {text.strip()}: frames must lie in 0-{MAX_FRAME} (Blender's limit)")
-    return start, end
 
 
 def parse_resolution(text: str) -> tuple[int, int]:

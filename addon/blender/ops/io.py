@@ -7,8 +7,10 @@ import bpy
 from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper, poll_file_object_drop
 
+from ...core.dynamic import is_dynamic_file
 from ...core.errors import SplatFormatError
 from ...core.formats import table
+from ..data.dynamic_files import import_dynamic
 from ..data.files import export_object, import_file_with_report, object_axes
 from ..data.sources import is_splat_object
 from ..registration import classes_and_menus
@@ -80,6 +82,9 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
         try:
             for i, path in enumerate(paths):
                 try:
+                    if is_dynamic_file(path):  # a 4D capture: one object that plays by itself
+                        imported.append(import_dynamic(context, path, axes=self.axes))
+                        continue
                     obj, report = import_file_with_report(
                         context, path, max_sh_degree=self.max_sh_degree, min_opacity=self.min_opacity,
                         max_count=self.max_count, axes=self.axes, bad=self.bad_values,

@@ -148,6 +148,9 @@ def read_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
         raise SplatFormatError(path, "PLY has no vertex element")
     if header.element("chunk") is not None:
         raise SplatFormatError(path, "this is a compressed PLY (chunk element); read it as compressed_ply")
+    if "trbf_center" in vertex.names():  # read as a still, its colours and time would be lost
+        raise SplatFormatError(path, "a dynamic (4D) capture (trbf_center): import or convert it "
+                                     "as one, or bake one moment with `convert --time T`")
     rest = sum(1 for name in vertex.names() if name.startswith("f_rest_"))
     check_budget(path, vertex.count, rest, max_splats)
     body = read_body(path, header)

@@ -14,8 +14,17 @@ JOBS    ?= 2
 # the engine's Blender-GPU path). 5.3 defaults to Vulkan (lavapipe here) and keeps OpenGL;
 # 4.5-5.2 default to OpenGL.
 GPU_BACKENDS := $(if $(filter 5.3,$(BLENDER)),VULKAN OPENGL,OPENGL)
+# The peers, outside tools the peer tests check Splatline against (testing/peers.py), live
+# outside the repository: `make peers` (.ci/peers.sh) installs them. Where they are installed,
+# their paths reach the tests and the bench; a variable already set in the environment wins.
+# Without them peer tests skip, saying why, except under CI (tests/project/test_peers_present.py).
+SPLATLINE_PEERS ?= $(HOME)/.cache/splatline-peers
+SPLATLINE_SPLAT_TRANSFORM ?= $(wildcard $(SPLATLINE_PEERS)/npm/node_modules/.bin/splat-transform)
+SPLATLINE_GSPLAT_JS ?= $(patsubst %/gsplat,%,$(wildcard $(SPLATLINE_PEERS)/npm/node_modules/gsplat))
+SPLATLINE_OPENJD ?= $(wildcard $(SPLATLINE_PEERS)/openjd/bin/openjd)
+export SPLATLINE_PEERS SPLATLINE_SPLAT_TRANSFORM SPLATLINE_GSPLAT_JS SPLATLINE_OPENJD
 
-.PHONY: test test-matrix demo bench extension sysdeps clean
+.PHONY: test test-matrix demo bench extension sysdeps peers clean
 
 $(REQS):
 	@echo "error: Blender $(BLENDER) has no environment here (supported: 4.5, 5.0, 5.2, 5.3)" >&2; exit 2
@@ -56,6 +65,9 @@ extension: $(STAMP)
 
 sysdeps:
 	@bash .ci/sysdeps.sh
+
+peers:
+	@bash .ci/peers.sh >/dev/null
 
 clean:
 	rm -rf .venv .venv-* out dist .pytest_cache

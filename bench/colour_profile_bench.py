@@ -18,14 +18,10 @@ starting at the next row):
 - ET off: the full composite.
 - ten batches: the batch schedule before commit 4d5c3c9, doubling from 1/64 of the splats
   to 1/8 (nine breaks where the renderer's now makes four).
-- fetch stop (where the GL has GL_EXT_shader_framebuffer_fetch): each fragment first reads
-  its pixel and is dropped where the pixel's T is already below 1e-4, the per-pixel stop
-  the map between batches cannot make (bench/fragment_census.py counts the fragments it
-  could spare); blending as in full.
 Then the share of the frame's 4x4-pixel cells saturated at each break (map build), with
-the renderer's batches and with ten. Where the fragments go: bench/fragment_census.py.
-The instrumented copies (bench/shader_patch.py) are the benches' only: they patch the
-shader text they load.
+the renderer's batches and with ten. The instrumented copies are this bench's only: each edit
+replaces one anchor string of a shader's text, and fails loudly when a shader no longer holds
+it, so the bench cannot silently measure the unpatched renderer.
 """
 from __future__ import annotations
 
@@ -36,10 +32,46 @@ import time
 import numpy as np
 
 from addon.core.scene import RenderOptions
-from addon.gl import composite
+from addon.gl import composite, shaders
 from bench.final_frame_bench import COUNT, SIZE
+from bench.final_frame_rows import small as small_camera
 from bench.playbot_scene import scene
-from bench.shader_patch import CORNERS, F, FETCH, FIRST, OUTSIDE, POSITION, TRIM, V, has_fetch, renderer_for
+
+V = "gl_splat.vert"
+OUTSIDE = "gl_Position = vec4(2.0, 2.0, 2.0, 1.0)"
+POSITION = "gl_Position = vec4(ndc.x, ndc.y, 0.5, 1.0);"
+FIRST = "    uint k = u_visible - 1u - (u_first + uint(gl_InstanceID));"
+CORNERS = "    vec2 pix = r0.xy + axes * corner;"
+TRIM = "const float SL_TRIM_AREA = 0.8;"
+
+
+def patched_source(edits):
+    """shaders.source with the edits (file, old, new) applied."""
+    plain = shaders.source
+
+    def source(name, *args, **kwargs):
+        text = plain(name, *args, **kwargs)
+        for file, old, new in edits:
+            if file == name:
+                if old not in text:
+                    raise RuntimeError(f"bench shader patch: {name} no longer holds {old.strip()!r}")
+                text = text.replace(old, new)
+        return text
+    return source
+
+
+def renderer_for(edits, items, cam):
+    """An OffscreenRenderer (colour only) whose programs were built from the edited shaders."""
+    from addon.gl import OffscreenRenderer
+
+    plain = shaders.source
+    shaders.source = patched_source(edits)
+    try:
+        r = OffscreenRenderer(depth_pass=False)
+        r.render(items, small_camera(cam), RenderOptions())  # builds every program
+    finally:
+        shaders.source = plain
+    return r
 
 
 def ten_batches(visible: int, early_termination: bool):
@@ -63,14 +95,10 @@ ROWS = {
     "ET off": ((), False),
     "ten batches": ((), True, ten_batches),
 }
-OUT = "layout(location = 0) out vec4 frag;"
-ALPHA = "    float alpha = sl_alpha_whitened(v_w, v_colour.a);"
-FETCH_STOP = (((F, "#version 430\n", "#version 430\n" + FETCH), (F, OUT, OUT.replace(" out ", " inout ")),
-               (F, ALPHA, "    if (frag.a > 1.0 - 1.0e-4) discard;  // T < 1e-4 already\n" + ALPHA)), True)
 
 
 def timings(items, cam, runs: int) -> dict:
-    rows = dict(ROWS, **({"fetch stop": FETCH_STOP} if has_fetch(items, cam) else {}))
+    rows = ROWS
     renderers = {name: renderer_for(row[0], items, cam) for name, row in rows.items()}
     samples = {name: [] for name in rows}
     plain = composite.batches

@@ -44,15 +44,6 @@ def median_ms(fn, runs: int, warm_up: bool = True) -> float:
     return 1000.0 * median_s(fn, runs, warm_up)
 
 
-def cell_blocks(x0, y0, nx, ny):
-    """(owner, column, row) of every cell of each owner's block of nx x ny cells from
-    (x0, y0), owners in order and each block row by row: how the probes bin splats."""
-    count = nx * ny
-    owner = np.repeat(np.arange(len(count)), count)
-    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    return owner, x0[owner] + k % nx[owner], y0[owner] + k // nx[owner]
-
-
 def crop(image, window):
     """The (x, y, width, height) window of a top-down image."""
     x, y, w, h = window

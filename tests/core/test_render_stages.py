@@ -25,6 +25,7 @@ from addon.core.holdout import Holdout
 from addon.core.renderer import CAPABILITIES, Renderer
 from addon.core.scene import RenderItem, RenderOptions
 from addon.gl import OffscreenRenderer, composite, holdout
+from testing import doc_paths
 from testing.gl_scenes import random_splats, world_for
 from testing.paths import REPO
 
@@ -119,11 +120,8 @@ def stage_table() -> list[dict]:
 
 
 def _paths(cell: str) -> list[pathlib.Path]:
-    out = []
-    for name in re.findall(r"`([^`]+\.[a-z]+)`", cell):
-        root = REPO if name.split("/")[0] in ("shaders", "tests") else REPO / "addon"
-        out.append(root / name)
-    return out
+    """The files a cell names, where the docs' one rule puts them (testing/doc_paths.py)."""
+    return [doc_paths.resolve(name) for name in re.findall(r"`([^`]+\.[a-z]+)`", cell)]
 
 
 def test_stage_table_names_existing_files():

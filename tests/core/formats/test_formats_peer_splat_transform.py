@@ -4,9 +4,8 @@
 rounding of the two decoders' arithmetic, far below each format's quantization step.
 
 splat-transform is an outside tool, not a dependency: these tests skip, saying why, unless
-it is on PATH or named by $SPLATLINE_SPLAT_TRANSFORM. Set it up outside the repository:
-    mkdir -p ~/st && cd ~/st && npm install @playcanvas/splat-transform@3.7.0
-    SPLATLINE_SPLAT_TRANSFORM=~/st/node_modules/.bin/splat-transform pytest tests/core/formats/test_formats_peer_splat_transform.py
+it is on PATH or named by $SPLATLINE_SPLAT_TRANSFORM (testing/peers.py); `make peers` installs
+it outside the repository and `make test` then passes its path. CI fails without it.
 
 Two formats need another route, because splat-transform 3.7.0 reads no .glb and writes no
 .splat (its --help lists the formats):
@@ -27,13 +26,12 @@ import pytest
 
 from addon.core.formats import read, write
 from addon.core.formats.splat import RECORD
-from bench.formats_bench import PEER_ENV, run_splat_transform, splat_transform_command
+from bench.formats_bench import run_splat_transform
+from testing.peers import missing_reason, splat_transform
 from testing.webp_support import STRAIGHT_WEBP
 
-PEER = splat_transform_command()
-pytestmark = pytest.mark.skipif(
-    PEER is None, reason=f"splat-transform not found: neither ${PEER_ENV} nor `splat-transform` on "
-                         "PATH (npm install @playcanvas/splat-transform@3.7.0 outside the repo)")
+PEER = splat_transform()
+pytestmark = pytest.mark.skipif(PEER is None, reason=missing_reason("splat-transform"))
 EPS32 = float(np.finfo(np.float32).eps)
 # (label, output name, writer options); a meta.json is an unbundled SOG in its own folder
 WRITERS = [("ply", "o.ply", {}), ("compressed_ply", "o.compressed.ply", {}), ("splat", "o.splat", {}),

@@ -5,8 +5,8 @@
 - gsplat (npm, 1.2.9): a .splatv Splatline wrote, parsed by gsplat's SplatvLoader under node
   (testing/splatv_peer.mjs), holds the words Splatline reads, laid out as gsplat's
   VideoRenderProgram shader reads them.
-Where the peers are: SPLATLINE_NODE_MODULES (a node_modules folder holding gsplat; default
-/opt/splatline-peers/node_modules), `node` on PATH, fourdgs importable in this Python.
+Where the peers are: testing/peers.py (gsplat: $SPLATLINE_GSPLAT_JS, a node_modules folder,
+and `node` on PATH; fourdgs importable in this Python).
 """
 from __future__ import annotations
 
@@ -23,10 +23,9 @@ from addon.core.dynamic import (ALPHA_MIN, from_fourdgs_arrays, read_dynamic, to
                                 write_dynamic)
 from addon.core.dynamic.splatv import RECORD
 from testing.dynamic_captures import raw_spacetime, same_rotation, write_raw_ply
+from testing import peers
 from testing.paths import REPO
 
-NODE_MODULES = os.environ.get("SPLATLINE_NODE_MODULES", "/opt/splatline-peers/node_modules")
-GSPLAT = os.path.join(NODE_MODULES, "gsplat", "dist", "index.es.js")
 
 
 def _state_matches(capture, state, t):
@@ -57,7 +56,7 @@ def _linear_capture(tmp_path, n=3000):
 
 
 def test_splatline_capture_through_fourdgs(tmp_path):
-    fourdgs = pytest.importorskip("fourdgs", reason="the fourdgs peer (pip install fourdgs==0.6.0) is absent")
+    fourdgs = pytest.importorskip("fourdgs", reason=peers.missing_reason("fourdgs"))
     ours = to_fourdgs(_linear_capture(tmp_path), seconds_per_unit=50 / 30)
     fourdgs.write(tmp_path / "ours.4dgs", fourdgs.GaussianSet(**to_fourdgs_arrays(ours)), ours.t_end)
     scene = fourdgs.read(str(tmp_path / "ours.4dgs"))
@@ -74,7 +73,7 @@ def test_splatline_capture_through_fourdgs(tmp_path):
 
 
 def test_fourdgs_data_through_splatline(tmp_path):
-    fourdgs = pytest.importorskip("fourdgs", reason="the fourdgs peer (pip install fourdgs==0.6.0) is absent")
+    fourdgs = pytest.importorskip("fourdgs", reason=peers.missing_reason("fourdgs"))
     rng = np.random.default_rng(32)
     n = 2000
     q = rng.normal(size=(n, 4))
@@ -101,11 +100,10 @@ def test_fourdgs_data_through_splatline(tmp_path):
 
 @pytest.fixture
 def gsplat_node():
-    node = shutil.which("node")
-    if node is None or not os.path.isfile(GSPLAT):
-        pytest.skip(f"the gsplat peer is absent: needs node and {GSPLAT} "
-                    f"(npm install --prefix /opt/splatline-peers gsplat@1.2.9, or set SPLATLINE_NODE_MODULES)")
-    return node
+    modules = peers.gsplat_modules()
+    if modules is None:
+        pytest.skip(peers.missing_reason("gsplat"))
+    return shutil.which("node"), str(modules / "gsplat" / "dist" / "index.es.js")
 
 
 def test_splatv_decoded_by_gsplat(tmp_path, gsplat_node):
@@ -113,7 +111,8 @@ def test_splatv_decoded_by_gsplat(tmp_path, gsplat_node):
     write_raw_ply(tmp_path / "st.ply", rec)
     write_dynamic(tmp_path / "st.splatv", read_dynamic(tmp_path / "st.ply"))
     ours = read_dynamic(tmp_path / "st.splatv")
-    out = subprocess.run([gsplat_node, str(REPO / "testing" / "splatv_peer.mjs"), GSPLAT, str(tmp_path / "st.splatv")],
+    node, gsplat = gsplat_node
+    out = subprocess.run([node, str(REPO / "testing" / "splatv_peer.mjs"), gsplat, str(tmp_path / "st.splatv")],
                          capture_output=True, text=True, timeout=120, check=True)
     peer = json.loads(out.stdout)
     assert peer["vertexCount"] >= ours.count and peer["width"] == 4096  # rows of 1024 splats, zero padded
@@ -125,7 +124,7 @@ def test_splatv_decoded_by_gsplat(tmp_path, gsplat_node):
     np.testing.assert_array_equal(words["trbf"].astype(np.float32), np.stack([ours.t_center, ours.t_scale], 1))
     np.testing.assert_array_equal(words["rgba"][:, 3] / np.float32(255), ours.opacities)
     # the layout is the one gsplat's shader reads (word 15 = trbf, 8..12 = motion, 13..14 = omega)
-    source = open(GSPLAT, encoding="utf-8").read()
+    source = open(gsplat, encoding="utf-8").read()
     for line in ("vec2 trbf = unpackHalf2x16(motion1.w);",
                  "vec4 trot = vec4(unpackHalf2x16(motion1.y).xy, unpackHalf2x16(motion1.z).xy) * dt;",
                  "vec4 rot = vec4(unpackHalf2x16(static0.w).xy, unpackHalf2x16(static1.x).xy) + trot;",

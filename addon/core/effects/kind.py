@@ -50,6 +50,9 @@ class Field:
 #   "morph": blends the splats with a target's, paired in order.
 GPU_PROGRAMS = ("reveal", "grade", "displace", "morph")
 COLOUR_PROGRAMS = frozenset({"reveal", "grade"})
+# what each program may write: a kind declaring it writes no more (EffectKind.writes)
+PROGRAM_WRITES = {"reveal": frozenset({"opacities", "scales", "sh_dc"}), "grade": frozenset({"sh_dc"}),
+                  "displace": frozenset({"positions"}), "morph": ALL_FIELDS}
 
 
 @dataclass(frozen=True)
@@ -98,6 +101,11 @@ class EffectKind:
     opaque: tuple = ()          # params identified by their source's key, not by value
     writes: frozenset = ALL_FIELDS
     gpu: GpuPath | None = None
+
+    def __post_init__(self):
+        if self.gpu is not None and not self.writes <= PROGRAM_WRITES[self.gpu.program]:
+            raise ValueError(f"effect {self.id}: the {self.gpu.program!r} program writes only "
+                             f"{sorted(PROGRAM_WRITES[self.gpu.program])} (declare `writes`)")
 
     @property
     def target_field(self) -> str | None:

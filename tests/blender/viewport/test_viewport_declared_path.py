@@ -94,9 +94,12 @@ def with_fades(bpy_empty, fades_in_table):
         _reregister(bpy_empty)
 
 
-def test_a_program_must_be_one_the_pass_has():
+def test_a_declaration_names_a_program_the_pass_has_and_writes_within_it():
     with pytest.raises(ValueError, match="'blur'"):
         GpuPath("blur")
+    with pytest.raises(ValueError, match="TEST_FADE: the 'reveal' program writes only") as caught:
+        replace(FADE, writes=frozenset({"opacities", "positions"}))
+    assert "\n" not in str(caught.value)
 
 
 # -- split_stack defers it as its program; applied as that program it is the stack --------

@@ -20,6 +20,7 @@ GPU_MODULE_TESTS = frozenset({
     "core/test_tie_order.py",
     "blender/viewport/test_viewport.py",
     "blender/viewport/test_viewport_blender.py",
+    "blender/viewport/test_viewport_declared_path.py",
     "blender/viewport/test_viewport_display_modes.py",
     "blender/viewport/test_viewport_effects.py",
     "blender/viewport/test_viewport_displace.py",

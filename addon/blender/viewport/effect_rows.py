@@ -2,6 +2,10 @@
 rows the shader reads the colour effects from (no bpy, no gpu). A morph has no row: the
 object's row holds its amount, and the target's own textures hold the rest.
 
+An effect reaches the pass through its kind's declaration (EffectKind.gpu: the program
+applying it, and its params as that program's); everything here is keyed by the program
+(a Deferred's `program`), never by the params' type.
+
 Scrubbing a reveal or a grade on the CPU rewrites and re-uploads the opacity, scale and
 colour of every splat each frame, and a displace its centres; here a frame uploads a few
 texels of parameters instead, and shaders/viewport_effects.glsl applies the numpy kernels'
@@ -29,11 +33,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...core.effects import registry
 from ...core.effects.common import F32, inverse, is_identity
-from ...core.effects.displace import Displace
-from ...core.effects.grade import MODES, Grade
-from ...core.effects.morph import Morph
-from ...core.effects.reveal import Reveal
+from ...core.effects.grade import MODES
 from ...core.sh import C0
 
 EFFECT_TEXELS = 8
@@ -48,32 +50,49 @@ def _finite(*values) -> bool:
 
 
 def on_gpu(params) -> bool:
-    """Whether the preprocess pass can apply this effect: reveal and grade (by height,
-    distance or noise), displace, and a morph of any pairing (deferral.drawn_splats hands
-    over its ends in order). Amount and shrink within [0, 1] (the panel's ranges) keep the
-    base scales an upper bound of what a colour effect draws, which the sort's culling
-    radius relies on."""
-    if not (getattr(params, "active", False) and 0.0 < params.amount <= 1.0):
+    """Whether the preprocess pass can apply this effect: a kind declaring a GPU path
+    (EffectKind.gpu) whose params, as its program's, are within that program's reach:
+    reveal and grade (by height, distance or noise), displace, and a morph of any pairing
+    (deferral.drawn_splats hands over its ends in order). Amount and shrink within [0, 1]
+    (the panel's ranges) keep the base scales an upper bound of what a colour effect
+    draws, which the sort's culling radius relies on."""
+    path = registry.of(params).gpu
+    if path is None:
         return False
-    if not _finite(np.asarray(params.frame, np.float64)):
+    p = path.params_for(params)
+    if not (getattr(p, "active", False) and 0.0 < p.amount <= 1.0):
         return False
-    if type(params) is Reveal:
-        return (params.shape in _REVEAL_FIELDS and 0.0 <= params.shrink <= 1.0
-                and _finite(params.progress, params.width, params.glow_strength, *params.glow_color))
-    if type(params) is Grade:
-        return (params.field in _GRADE_FIELDS and params.mode in MODES
-                and 1 <= len(params.stops) <= MAX_STOPS and _finite(params.low, params.high)
-                and all(_finite(x, *rgb) for x, rgb in params.stops))
-    if type(params) is Displace:  # at amplitude 0 the kernel returns its input: no layers
-        return params.amplitude != 0.0 and _finite(params.amplitude, params.frequency, params.speed)
-    if type(params) is Morph:  # any pairing: the renderer is handed its ends in order
-        return params.amount < 1.0 and params.target is not None
-    return False
+    if not _finite(np.asarray(p.frame, np.float64)):
+        return False
+    return _TAKES[path.program](p)
+
+
+def _takes_reveal(p) -> bool:
+    return (p.shape in _REVEAL_FIELDS and 0.0 <= p.shrink <= 1.0
+            and _finite(p.progress, p.width, p.glow_strength, *p.glow_color))
+
+
+def _takes_grade(p) -> bool:
+    return (p.field in _GRADE_FIELDS and p.mode in MODES and 1 <= len(p.stops) <= MAX_STOPS
+            and _finite(p.low, p.high) and all(_finite(x, *rgb) for x, rgb in p.stops))
+
+
+def _takes_displace(p) -> bool:  # at amplitude 0 the kernel returns its input: no layers
+    return p.amplitude != 0.0 and _finite(p.amplitude, p.frequency, p.speed)
+
+
+def _takes_morph(p) -> bool:  # any pairing: the renderer is handed its ends in order
+    return p.amount < 1.0 and p.target is not None
+
+
+# what each program takes, by its name (core.effects.kind.GPU_PROGRAMS)
+_TAKES = {"reveal": _takes_reveal, "grade": _takes_grade, "displace": _takes_displace,
+          "morph": _takes_morph}
 
 
 def morph_of(deferred: tuple):
     """The deferred morph's params (the first deferred effect, split_stack's rule), or None."""
-    return deferred[0].params if deferred and type(deferred[0].params) is Morph else None
+    return deferred[0].params if deferred and deferred[0].program == "morph" else None
 
 
 def mover_of(deferred: tuple):
@@ -84,7 +103,7 @@ def mover_of(deferred: tuple):
 
 def displace_of(deferred: tuple):
     """The deferred displace (a Deferred carrying its layers), or None."""
-    return next((d for d in deferred if type(d.params) is Displace), None)
+    return next((d for d in deferred if d.program == "displace"), None)
 
 
 def displace_layers(d) -> tuple:
@@ -102,28 +121,23 @@ def effect_rows(deferred: tuple, field_starts: list = ()) -> np.ndarray:
     """(EFFECT_TEXELS rows per colour effect, 4) float32: the deferred colour effects'
     rows, in order (a morph's amount is on the object's row). field_starts: for each
     noise effect in order, the fields texture's texel of the object's first value."""
-    deferred = [d for d in deferred if type(d.params) is not Morph]
+    deferred = [d for d in deferred if d.program != "morph"]
     rows = np.zeros((len(deferred) * EFFECT_TEXELS, 4), np.float32)
     starts = iter(field_starts)
     for k, d in enumerate(deferred):
         part = rows[k * EFFECT_TEXELS:(k + 1) * EFFECT_TEXELS]
         p = d.params
-        if type(p) is Displace:
+        if d.program == "displace":
             part[0, 0] = DISPLACE
             part[1, :3] = _displace_weights(d)
             continue
+        if d.program not in _COLOUR_ROWS:
+            raise ValueError(f"the viewport has no rows for the program {d.program!r}")
         if is_noise(p):
             part[1, 0] = next(starts)
         else:
             part[1:4] = (np.eye(4) if is_identity(p.frame) else inverse(p.frame))[:3]
-        if type(p) is Reveal:
-            part[0] = (REVEAL, _REVEAL_FIELDS[p.shape], d.at_rest, p.amount)
-            _reveal(part, p)
-        elif type(p) is Grade:
-            part[0] = (GRADE, _GRADE_FIELDS[p.field], d.at_rest, p.amount / C0)
-            _grade(part, p)
-        else:
-            raise TypeError(f"the viewport cannot apply {type(p).__name__} itself")
+        _COLOUR_ROWS[d.program](part, p, d.at_rest)
     return rows
 
 
@@ -134,7 +148,9 @@ def _displace_weights(d) -> tuple:
     return F32(w0), F32(w1), F32(d.params.amount * d.params.amplitude)
 
 
-def _reveal(part: np.ndarray, p: Reveal) -> None:
+def _reveal(part: np.ndarray, p, at_rest: bool) -> None:
+    """Row 0 and the reveal program's rows, from a Reveal's params."""
+    part[0] = (REVEAL, _REVEAL_FIELDS[p.shape], at_rest, p.amount)
     # each constant as the kernel rounds it: the float64 expression, then float32
     hard = p.width <= 0.0
     part[4] = (p.progress, 0.0 if hard else -1.0 / p.width, p.invert, p.amount * p.shrink)
@@ -143,9 +159,14 @@ def _reveal(part: np.ndarray, p: Reveal) -> None:
     part[6, 0] = hard
 
 
-def _grade(part: np.ndarray, p: Grade) -> None:
+def _grade(part: np.ndarray, p, at_rest: bool) -> None:
+    """Row 0 and the grade program's rows, from a Grade's params."""
+    part[0] = (GRADE, _GRADE_FIELDS[p.field], at_rest, p.amount / C0)
     scale = 1.0 / (p.high - p.low) if p.high != p.low else 1e12
     stops = sorted(p.stops, key=lambda s: s[0])  # stable, as grade.gradient's
     part[4] = (p.low, scale, MODES.index(p.mode), len(stops))
     for k, (x, rgb) in enumerate(stops):
         part[5 + k] = (x, *rgb[:3])
+
+
+_COLOUR_ROWS = {"reveal": _reveal, "grade": _grade}  # the colour programs' rows, by name

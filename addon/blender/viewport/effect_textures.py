@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from ...core.effects import noise
-from ...core.effects.morph import Morph
+from ...core.effects.kind import COLOUR_PROGRAMS
 from ...core.scene import RenderItem
 from . import packing
 from .effect_rows import displace_layers, displace_of, is_noise, morph_of
@@ -73,7 +73,7 @@ class EffectTextures:
         for i in items:
             starts = []
             for d in i.deferred:
-                if type(d.params) is not Morph and is_noise(d.params):
+                if d.program in COLOUR_PROGRAMS and is_noise(d.params):
                     rows = noise_rows(i, d.params)
                     got.append(packs.get("fields", i, (rows,), lambda rows=rows: rows.reshape(-1),
                                          key=i.base_key))

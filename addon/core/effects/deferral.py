@@ -1,7 +1,10 @@
 """Which effects of a stack a renderer may apply itself, after the CPU's part.
 
-The viewport can apply colour effects (those changing only opacities, scales and SH DC)
-and a morph in its preprocess pass, so that scrubbing them re-uploads nothing per splat.
+The viewport can apply colour effects (those changing only opacities, scales and SH DC),
+a displace and a morph in its preprocess pass, so that scrubbing them re-uploads nothing
+per splat. A kind says which of the pass's programs applies it (EffectKind.gpu, a
+kind.GpuPath): this module reads that declaration, never the params' type, and hands
+the renderer each deferred effect as its program and that program's params.
 Moving a colour effect out of the stack to its end is exact when nothing after it reads
 what it writes and its field is measured at the same centres:
 - an effect after it writes positions and rotations only (such kinds read only those,
@@ -29,8 +32,9 @@ import numpy as np
 
 from ..splats import SplatSet
 from . import registry
-from .displace import Displace, noise_layers
-from .morph import Morph, aligned, morph_positions, pairing_for
+from .displace import noise_layers
+from .kind import COLOUR_PROGRAMS
+from .morph import aligned, morph_positions, pairing_for
 from .stack import apply_effect
 
 GEOMETRY = frozenset({"positions", "rotations"})
@@ -39,7 +43,8 @@ COLOUR = frozenset({"opacities", "scales", "sh_dc"})
 
 @dataclass(frozen=True)
 class Deferred:
-    params: object      # a kernel's params (a colour kind's, a Displace's or a Morph's)
+    params: object      # its program's params (GpuPath.params_for: a Reveal, a Grade, a
+                        # Displace or a Morph), which the program's kernel applies
     at_rest: bool       # its field is measured at the stack's input centres, not the final ones
     # as drawn_splats hands a displace or a morph over: the centres the renderer moves
     # itself (the handed splats hold the moved ones, to sort by): a displace's input, the
@@ -48,35 +53,49 @@ class Deferred:
     # and a displace's noise layers at the frame's time, ((weight, (N, 3) rows), ...) as
     # displace.noise_layers gives them
     layers: tuple = field(default=(), compare=False)
+    # the preprocess program applying it (kind.GPU_PROGRAMS); left out, the one declared
+    # by the kind whose params `params` are
+    program: str = ""
+
+    def __post_init__(self):
+        if not self.program:
+            object.__setattr__(self, "program", registry.of(self.params).gpu.program)
 
 
 def split_stack(effects: list, on_gpu: Callable[[object], bool]) -> tuple[list, tuple]:
     """(the effects to evaluate on the CPU, in order; the Deferred ones, in order).
+    Only kinds declaring a GPU path (EffectKind.gpu) are deferred, by its program's rule;
     on_gpu(params): whether the renderer can apply this effect itself."""
-    movers = [registry.of(p).moves_splats for p in effects]
+    kinds = [registry.of(p) for p in effects]
+    movers = [kind.moves_splats for kind in kinds]
     deferred, kept_after = [], []
     cut = len(effects)
     for i in range(len(effects) - 1, -1, -1):
-        p, kind = effects[i], registry.of(effects[i])
-        if type(p) is Morph:
+        p, kind = effects[i], kinds[i]
+        path = kind.gpu
+        program = path.program if path is not None else None
+        if program == "morph":
             # its output is read by deferred effects only
-            if not kept_after and on_gpu(p) and _ends_kept(p, effects[:i]):
-                deferred.append(Deferred(p, at_rest=False))
-                cut = i
+            if not kept_after and on_gpu(p):
+                q = path.params_for(p)
+                if _ends_kept(q, effects[:i]):
+                    deferred.append(Deferred(q, at_rest=False, program=program))
+                    cut = i
             break  # what comes before it is the morph's source
-        if type(p) is Displace and not kept_after and not any(movers[:i]) and on_gpu(p):
-            deferred.append(Deferred(p, at_rest=True))
+        if program == "displace" and not kept_after and not any(movers[:i]) and on_gpu(p):
+            deferred.append(Deferred(path.params_for(p), at_rest=True, program=program))
         elif kind.writes <= GEOMETRY:
             kept_after.append(p)
-        elif kind.writes <= COLOUR and on_gpu(p) and not (any(movers[:i]) and any(movers[i + 1:])):
-            deferred.append(Deferred(p, at_rest=not any(movers[:i])))
+        elif (program in COLOUR_PROGRAMS and kind.writes <= COLOUR and on_gpu(p)
+              and not (any(movers[:i]) and any(movers[i + 1:]))):
+            deferred.append(Deferred(path.params_for(p), at_rest=not any(movers[:i]), program=program))
         else:
             break
         cut = i
     return list(effects[:cut]) + kept_after[::-1], tuple(deferred[::-1])
 
 
-def _ends_kept(p: Morph, before: list) -> bool:
+def _ends_kept(p, before: list) -> bool:
     """Whether a deferred morph's ends (morph.aligned) stay the same arrays from frame to
     frame. Without a pairing of its own the morph pairs its splats anew each frame
     (morph.pairing_for), and so gathers its ends anew. Paired in order, they are its
@@ -98,14 +117,14 @@ def drawn_splats(splats: SplatSet, deferred: tuple, time: float = 0.0) -> tuple[
     and the deferred effects as they are."""
     if not deferred:
         return splats, deferred
-    displace = next((k for k, d in enumerate(deferred) if type(d.params) is Displace), None)
+    displace = next((k for k, d in enumerate(deferred) if d.program == "displace"), None)
     if displace is not None:
         p = deferred[displace].params
         layered = replace(deferred[displace], centres=splats.positions,
                           layers=tuple(noise_layers(splats.positions, p, time)))
         moved = apply_effect(splats, p, time, splats.positions)
         return moved, deferred[:displace] + (layered,) + deferred[displace + 1:]
-    if type(deferred[0].params) is not Morph:
+    if deferred[0].program != "morph":
         return splats, deferred
     p = deferred[0].params
     ends = aligned(splats, p.target, pairing_for(splats, p))
@@ -117,11 +136,11 @@ def drawn_splats(splats: SplatSet, deferred: tuple, time: float = 0.0) -> tuple[
 
 
 def apply_deferred(splats: SplatSet, rest, deferred: tuple, time: float) -> SplatSet:
-    """The deferred effects on the CPU's result: what a renderer applying them must draw.
-    rest: the stack's input centres."""
+    """The deferred effects on the CPU's result: what a renderer applying them must draw
+    (each program's kernel on its params). rest: the stack's input centres."""
     rest_or_none = rest if rest.shape[0] == splats.count else None  # as evaluate_stack
     for d in deferred:
-        if type(d.params) in (Morph, Displace):  # they move the splats themselves
+        if d.program not in COLOUR_PROGRAMS:  # a morph or a displace moves the splats itself
             splats = apply_effect(splats, d.params, time, rest_or_none)
             continue
         field_at = rest if d.at_rest else splats.positions

@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .common import F32, EffectParams, for_blocks
-from .kind import FREQUENCY, SEED, EffectKind, Field
+from .kind import FREQUENCY, SEED, EffectKind, Field, GpuPath
 from .noise import field_rows
 
 
@@ -73,6 +73,7 @@ def apply(splats, p: Displace, time: float = 0.0, rest=None):
 KIND = EffectKind(
     "DISPLACE", 1, "Displace", "Seeded smooth noise displacement, continuous in time", "MOD_NOISE",
     Displace, apply, writes=frozenset({"positions"}),
+    gpu=GpuPath("displace"),
     moves_splats=True, depends_on_time=True, fields=(
         Field("amplitude", "FLOAT", "Amplitude", 0.1,
               options={"soft_min": 0.0, "soft_max": 2.0, "unit": "LENGTH"}),

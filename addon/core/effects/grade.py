@@ -15,7 +15,7 @@ import numpy as np
 from ..sh import C0
 from .common import F32, EffectParams, for_blocks
 from .field_memo import rows_field
-from .kind import FREQUENCY, SEED, EffectKind, Field
+from .kind import FREQUENCY, SEED, EffectKind, Field, GpuPath
 from .noise import rest_field
 
 FIELDS = ("HEIGHT", "DISTANCE", "NOISE")
@@ -118,6 +118,7 @@ def _colour(name, label, default):
 KIND = EffectKind(
     "GRADE", 4, "Colour Grade", "A colour gradient by height, distance or noise", "COLOR",
     Grade, apply, writes=frozenset({"sh_dc"}),
+    gpu=GpuPath("grade"),
     moves_splats=False, depends_on_time=False, fields=(
         Field("grade_field", "ENUM", "Field", param="field", items=(
             ("HEIGHT", "Height", "Along the gizmo's Z"), ("DISTANCE", "Distance", "From the gizmo"),

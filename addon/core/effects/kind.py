@@ -3,7 +3,8 @@
 Everything outside the kernel reads the description: the Blender property group and its
 panel (fields), the operators' type menu, the evaluator (params built from the fields, a
 cache key that holds the time only when `depends_on_time`, a positions key that changes
-only when `moves_splats`). registry.py holds the table of kinds.
+only when `moves_splats`, and the viewport's GPU path through `gpu`). registry.py holds
+the table of kinds.
 """
 from __future__ import annotations
 
@@ -41,6 +42,40 @@ class Field:
             raise ValueError(f"field {self.name!r}: type {self.type!r} is not one of {FIELD_TYPES}")
 
 
+# The programs of the viewport's preprocess pass (shaders/viewport_effects.glsl), each of
+# which applies one built-in kernel's arithmetic to that kernel's params:
+#   "reveal", "grade": colour programs, writing opacities, scales and SH DC from a field
+#     (height, distance or noise) measured at the drawn centres or the stack's input ones;
+#   "displace": moves the stack's input centres by the blend of two noise layers;
+#   "morph": blends the splats with a target's, paired in order.
+GPU_PROGRAMS = ("reveal", "grade", "displace", "morph")
+COLOUR_PROGRAMS = frozenset({"reveal", "grade"})
+# what each program may write: a kind declaring it writes no more (EffectKind.writes)
+PROGRAM_WRITES = {"reveal": frozenset({"opacities", "scales", "sh_dc"}), "grade": frozenset({"sh_dc"}),
+                  "displace": frozenset({"positions"}), "morph": ALL_FIELDS}
+
+
+@dataclass(frozen=True)
+class GpuPath:
+    """How the viewport's GPU path applies a kind: the preprocess program, and how the
+    kind's params become that program's own params (the params of the built-in kind it
+    was written for: a Reveal for "reveal"). None: the kind's params are those already.
+
+    The promise a declaration makes: the program's kernel on `as_program(params)` gives
+    the kind's kernel output, bit for bit (deferral.apply_deferred, which tests pin to
+    evaluate_stack). Whether one set of params is within the program's reach (ranges,
+    finiteness) is the viewport's to say (blender/viewport/effect_rows.on_gpu)."""
+    program: str
+    as_program: Callable | None = None  # params -> the program's params
+
+    def __post_init__(self):
+        if self.program not in GPU_PROGRAMS:
+            raise ValueError(f"GPU program {self.program!r} is not one of {GPU_PROGRAMS}")
+
+    def params_for(self, params):
+        return params if self.as_program is None else self.as_program(params)
+
+
 @dataclass(frozen=True)
 class EffectKind:
     """An effect: its kernel, its parameters and what the evaluator must know about it.
@@ -49,7 +84,9 @@ class EffectKind:
     depends_on_time: its output changes with time itself, not only through keyframes
     (the cache key of an evaluated frame then holds the time).
     writes: the SplatSet fields its output may hold new values in (an upper bound); a kind
-    writing only positions and rotations reads only those too (deferral.py relies on it)."""
+    writing only positions and rotations reads only those too (deferral.py relies on it).
+    gpu: how the viewport's preprocess pass applies it itself (GpuPath), or None: the CPU
+    evaluates it there too, and the renderer re-uploads what it writes each frame."""
     id: str                     # the Effect item's `type`, held by files and presets
     number: int                 # its enum value in saved files: unique, never reused
     label: str
@@ -63,6 +100,12 @@ class EffectKind:
     derive: Callable | None = None  # (field values by name, fps) -> further params
     opaque: tuple = ()          # params identified by their source's key, not by value
     writes: frozenset = ALL_FIELDS
+    gpu: GpuPath | None = None
+
+    def __post_init__(self):
+        if self.gpu is not None and not self.writes <= PROGRAM_WRITES[self.gpu.program]:
+            raise ValueError(f"effect {self.id}: the {self.gpu.program!r} program writes only "
+                             f"{sorted(PROGRAM_WRITES[self.gpu.program])} (declare `writes`)")
 
     @property
     def target_field(self) -> str | None:

@@ -21,7 +21,7 @@ from ..reframe import map_into
 from ..splats import ARRAYS, SplatSet, sh_coeff_count
 from .array_memo import ArrayMemo
 from .common import F32, EffectParams, for_blocks, split
-from .kind import EffectKind, Field
+from .kind import EffectKind, Field, GpuPath
 from .recycle import BUFFERS
 
 
@@ -337,6 +337,7 @@ def _target(values: dict, fps: float) -> dict:
 
 KIND = EffectKind(
     "MORPH", 5, "Morph", "Blend towards another splat object", "SHAPEKEY_DATA", Morph, apply,
+    gpu=GpuPath("morph"),
     moves_splats=True, depends_on_time=False, fields=(
         Field("target", "SPLATS", "Target", derived=True, description=(
             "Splat object to morph into (its own data, not its effects). To keep it from "

@@ -16,7 +16,7 @@ import numpy as np
 from ..sh import C0
 from .common import F32, EffectParams, add_rows, for_blocks, put_rows, scale_rows, smoothstep01
 from .field_memo import rows_field
-from .kind import FREQUENCY, SEED, EffectKind, Field
+from .kind import FREQUENCY, SEED, EffectKind, Field, GpuPath
 from .noise import rest_field
 
 SHAPES = ("PLANE", "SPHERE", "NOISE")
@@ -113,6 +113,7 @@ def apply(splats, p: Reveal, time: float = 0.0, rest=None):
 KIND = EffectKind(
     "REVEAL", 0, "Reveal/Dissolve", "A plane, sphere or noise threshold sweeps the splats in or out",
     "MOD_BUILD", Reveal, apply, writes=frozenset({"opacities", "scales", "sh_dc"}),
+    gpu=GpuPath("reveal"),
     moves_splats=False, depends_on_time=False, fields=(
         Field("reveal_shape", "ENUM", "Shape", param="shape", items=(
             ("PLANE", "Plane", "Height along the gizmo's Z"),

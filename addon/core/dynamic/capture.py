@@ -145,6 +145,17 @@ class DynamicCapture:
                 self._inv_scale = (1.0 / self.t_scale.astype(np.float64)).astype(np.float32)
         return self._inv_scale
 
+    def segment_view(self, name: str, a: int, b: int) -> np.ndarray:
+        """A read-only view of field `name` over splats a..b, the same array object each
+        time: where every splat is kept, the fields time does not change are handed over as
+        these, so a renderer that keeps uploads by array identity uploads them once."""
+        views = self.__dict__.setdefault("_views", {})
+        view = views.get((name, a, b))
+        if view is None:
+            view = views[(name, a, b)] = getattr(self, name)[a:b].view()
+            view.flags.writeable = False
+        return view
+
     def check(self) -> "DynamicCapture":
         """Assert shapes, dtypes and names; returns self."""
         n = self.count

@@ -56,12 +56,6 @@ def alive_mask(capture: DynamicCapture, t: float) -> np.ndarray:
     return mask
 
 
-def _read_only(arr: np.ndarray) -> np.ndarray:
-    view = arr.view()
-    view.flags.writeable = False
-    return view
-
-
 def _centres(capture: DynamicCapture, rows: slice, dt: np.ndarray) -> np.ndarray:
     """positions + sum_d motion[d] Delta^(d+1), by Horner's rule, float32. motion[:, d] is a
     contiguous plane (capture.motion_planes), so each term is one pass."""
@@ -122,21 +116,21 @@ def _evaluate(capture: DynamicCapture, t: float) -> Frame:
     centres = _centres(capture, rows, dt)
     finite = _finite_rows(centres)
     if capture.model == "4dgs":  # fixed orientation, unit since construction
-        rotations, ok = _read_only(capture.rotations[rows]), None
+        rotations, ok = capture.segment_view("rotations", a, b), None
     else:
         rotations, ok = _rotations(capture, rows, dt)
     zero = 0 if ok is None else int(np.count_nonzero(alive & ~ok))
     overflow = int(np.count_nonzero(alive & ~finite))
     good = alive & finite if ok is None else alive & finite & ok
     if good.all():
-        pick = lambda arr: _read_only(arr[rows])
+        pick = lambda name: capture.segment_view(name, a, b)
         index = np.arange(a, b, dtype=np.int64)
     else:
-        pick = lambda arr: np.compress(good, arr[rows], axis=0)
+        pick = lambda name: np.compress(good, getattr(capture, name)[rows], axis=0)
         index = np.flatnonzero(good).astype(np.int64) + a
         centres, rotations, opacity = (np.compress(good, x, axis=0) for x in (centres, rotations, opacity))
-    splats = SplatSet(positions=centres, scales=pick(capture.scales), rotations=rotations, opacities=opacity,
-                      sh_dc=pick(capture.sh_dc), sh_rest=pick(capture.sh_rest), axes=capture.axes)
+    splats = SplatSet(positions=centres, scales=pick("scales"), rotations=rotations, opacities=opacity,
+                      sh_dc=pick("sh_dc"), sh_rest=pick("sh_rest"), axes=capture.axes)
     return Frame(t=t, splats=splats, index=index, zero_rotations=zero, overflow=overflow)
 
 

@@ -162,10 +162,14 @@ def test_cli_doc_lines_parse():
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory, testdata):
     """A folder holding copies of the captures under the README's names (copies: some
-    commands write over them)."""
+    commands write over them), and a generated dynamic capture."""
+    from addon.core.dynamic import write_dynamic
+    from testing.dynamic_scenes import spacetime_capture
+
     work = tmp_path_factory.mktemp("readme")
     for name, capture in FILES.items():
         shutil.copyfile(testdata / capture, work / name)
+    write_dynamic(work / "dancer.ply", spacetime_capture(800))  # no package ships a 4D capture
     return work
 
 

@@ -67,7 +67,7 @@ def _as_fourdgs(path, capture: DynamicCapture) -> DynamicCapture:
 
 def _check_finite(path, fields: dict) -> None:
     for name, values in fields.items():
-        bad = ~np.isfinite(values).reshape(len(values), -1).all(axis=1)
+        bad = ~np.isfinite(values).reshape(len(values), -1 if values.size else 0).all(axis=1)
         if bad.any():
             raise SplatFormatError(path, f"{int(bad.sum())} splats have a non-finite {name}, which .4dgs cannot hold")
 
@@ -125,7 +125,7 @@ def _sh_bytes(c: DynamicCapture) -> dict:
     out = {}
     for band in range(1, c.sh_degree + 1):
         first, last = SH_BANDS[band]
-        coeff = c.sh_rest[:, first:last].astype(np.float64).transpose(0, 2, 1).reshape(c.count, -1)
+        coeff = c.sh_rest[:, first:last].astype(np.float64).transpose(0, 2, 1).reshape(c.count, 3 * (last - first))
         out[band] = np.clip(np.rint((coeff - SH_QUANT_LO) / (SH_QUANT_HI - SH_QUANT_LO) * 255.0), 0, 255)
     return out
 

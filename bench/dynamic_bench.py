@@ -9,11 +9,18 @@ Rows (medians over TIMES, RUNS passes each):
 - at(t) linear degree 3: linear motion, no omega, 45 higher-SH floats gathered per kept splat
 - reference_at (float64) on SUBSET splats, per splat scaled to 1M
 Then the memory a splat takes in each capture (DynamicCapture.nbytes / count).
+Then .4dgs: the linear degree-3 capture (in seconds) written by Splatline, and that file read
+by Splatline (read_dynamic) and by fourdgs.read (the format's reference reader, when it is
+installed) in the same run: median of RUNS reads, and each reader's peak of traced
+(numpy and Python) allocations in a separate read (tracemalloc).
 """
 from __future__ import annotations
 
+import os
 import statistics
+import tempfile
 import time
+import tracemalloc
 
 import numpy as np
 
@@ -69,6 +76,39 @@ def main() -> None:
         print(f"{name:<52}{ms:>10.1f}{'' if ratio is None else f'{ratio:>11.2f}'}")
     print(f"\nmemory per splat: spacetime lite {lite.nbytes / COUNT:.0f} B, linear degree 3 "
           f"{linear.nbytes / COUNT:.0f} B (DynamicCapture.nbytes; the fast path's cached 1/t_scale adds 4 B)")
+    fourdgs_rows(linear)
+
+
+def _peak_mib(fn, arg) -> float:
+    tracemalloc.start()
+    try:
+        fn(arg)
+        return tracemalloc.get_traced_memory()[1] / 2**20
+    finally:
+        tracemalloc.stop()
+
+
+def fourdgs_rows(linear) -> None:
+    """Splatline's .4dgs reader against fourdgs.read on one 1M-splat file."""
+    from addon.core.dynamic import read_dynamic, to_fourdgs, write_dynamic
+    capture = to_fourdgs(linear, seconds_per_unit=1.0)
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "bench.4dgs")
+        t0 = time.perf_counter()
+        write_dynamic(path, capture)
+        print(f"\n.4dgs, {COUNT // 1000}k splats, SH degree 3, {os.path.getsize(path) / 2**20:.1f} MiB "
+              f"(Splatline wrote it in {time.perf_counter() - t0:.1f} s)")
+        readers = [("Splatline read_dynamic", read_dynamic)]
+        try:
+            import fourdgs
+            readers.append((f"fourdgs {fourdgs.__version__} read", fourdgs.read))
+        except ImportError:
+            print("fourdgs is not installed (pip install fourdgs==0.6.0): no baseline row")
+        print(f"{'reader':<32}{'ms':>10}{'peak MiB':>10}{'x fourdgs':>11}")
+        rows = [(name, _median_ms(fn, [path]), _peak_mib(fn, path)) for name, fn in readers]
+        base = rows[-1][1] if len(rows) > 1 else None
+        for name, ms, peak in rows:
+            print(f"{name:<32}{ms:>10.0f}{peak:>10.0f}{'' if base is None else f'{ms / base:>11.2f}'}")
 
 
 if __name__ == "__main__":

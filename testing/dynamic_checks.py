@@ -1,4 +1,4 @@
-"""Pinning DynamicCapture.at (float32) to reference_at (float64) at one time."""
+"""Pinning DynamicCapture.at (float32) to reference_at (float64), and to fourdgs' state_at, at one time."""
 from __future__ import annotations
 
 import numpy as np
@@ -55,3 +55,22 @@ def check_against_reference(capture, t) -> tuple:
     np.testing.assert_allclose(frame.splats.opacities[fi], ref.opacities[ri], rtol=2e-6, atol=1e-7)
     assert np.isfinite(frame.splats.positions).all() and np.isfinite(frame.splats.rotations).all()
     return frame, ref
+
+
+def fourdgs_state_matches(capture, state, t):
+    """Splatline's at(t) equals fourdgs' state_at(t) on the splats both keep; fourdgs keeps
+    the rest only below Splatline's opacity floor of 1/255."""
+    frame = capture.at(t)
+    theirs = np.asarray(state["indices"])
+    assert set(frame.index) <= set(theirs)
+    extra = np.setdiff1d(theirs, frame.index)
+    assert np.all(np.asarray(state["opacity"])[np.searchsorted(theirs, extra)] < ALPHA_MIN * (1 + 1e-5))
+    rows = np.searchsorted(theirs, frame.index)
+    centres = np.asarray(state["centers"])[rows]
+    tol = 8 * np.finfo(np.float32).eps * (np.abs(centres) + np.abs(capture.motion[frame.index, 0]).sum(1)[:, None]
+                                          * max(1.0, abs(t)) + 1.0)
+    assert np.all(np.abs(frame.splats.positions - centres) <= tol)
+    xyzw = np.asarray(state["orientations"])[rows]
+    assert same_rotation(frame.splats.rotations.astype(np.float64), xyzw[:, [3, 0, 1, 2]]).max() <= 1e-6
+    np.testing.assert_allclose(frame.splats.opacities, np.asarray(state["opacity"])[rows], rtol=2e-6, atol=1e-8)
+    return frame.alive

@@ -5,9 +5,7 @@
     write_dynamic(path or [paths], capture)
 
 Several paths are segments played in order: segment k covers capture time [k, k + 1).
-.4dgs files are recognised but not read or written yet: their container (chunked, quantised,
-deflate-compressed records with CRCs and an index) is refused in one line; in memory,
-convert.from_fourdgs_arrays takes what `fourdgs.read` decodes.
+.4dgs files (Avala AI's container) are read by fourdgs.py and written by fourdgs_write.py.
 """
 from __future__ import annotations
 
@@ -18,13 +16,14 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..formats._common import file_size
 from .capture import DynamicCapture
+from .fourdgs import read_fourdgs
+from .fourdgs_wire import MAGIC as FOURDGS_FILE_MAGIC
+from .fourdgs_write import write_fourdgs
 from .ply_read import is_dynamic_names, read_dynamic_ply, vertex_names
 from .ply_write import write_dynamic_ply
 from .splatv import read_splatv, sniff as sniff_splatv, write_splatv
 
-FOURDGS_MAGIC = b"\x894DGS"  # then the major version byte and \r\n
-_FOURDGS_REFUSAL = (".4dgs containers are not read or written by Splatline yet (chunked, quantised, compressed "
-                    "records); decode it with the fourdgs package and use core.dynamic.convert.from_fourdgs_arrays")
+FOURDGS_MAGIC = FOURDGS_FILE_MAGIC[:5]  # then the major version byte and \r\n: other versions sniff too
 
 
 def _kind(path) -> str | None:
@@ -54,7 +53,7 @@ def _read_one(path, max_splats) -> DynamicCapture:
     try:
         kind = _kind(path)
         if kind == "4dgs":
-            raise SplatFormatError(path, _FOURDGS_REFUSAL)
+            return read_fourdgs(path, max_splats)
         if kind == "splatv":
             return read_splatv(path, max_splats).check()
         if kind == "ply":
@@ -107,13 +106,16 @@ def join_segments(paths, parts) -> DynamicCapture:
 
 def write_dynamic(path_or_paths, capture: DynamicCapture) -> None:
     """By extension: .ply (Spacetime lite for spacetime captures, linear-motion for linear
-    ones; one path per segment) or .splatv (one segment). .4dgs is refused (see above)."""
+    ones; one path per segment), .splatv (one segment) or .4dgs (a 4dgs capture, or one in
+    seconds with linear motion and no omega; fourdgs_write.py)."""
     capture.check()
     paths = [path_or_paths] if isinstance(path_or_paths, (str, os.PathLike)) else list(path_or_paths)
     ext = os.path.splitext(os.fspath(paths[0]))[1].lower()
     if ext == ".4dgs":
-        raise SplatFormatError(paths[0], _FOURDGS_REFUSAL)
-    if ext == ".splatv":
+        if len(paths) != 1:
+            raise SplatFormatError(paths[0], "a .4dgs holds one capture; give one path")
+        write_fourdgs(paths[0], capture)
+    elif ext == ".splatv":
         if len(paths) != 1:
             raise SplatFormatError(paths[0], "a .splatv holds one segment; give one path")
         write_splatv(paths[0], capture)
@@ -121,4 +123,4 @@ def write_dynamic(path_or_paths, capture: DynamicCapture) -> None:
         write_dynamic_ply(paths, capture)
     else:
         raise SplatFormatError(paths[0], f"cannot write dynamic captures as {ext or 'extension-less'} files; "
-                                         f"writable: .ply, .splatv")
+                                         f"writable: .ply, .splatv, .4dgs")

@@ -12,39 +12,20 @@ from __future__ import annotations
 
 import base64
 import json
-import os
 import shutil
 import subprocess
 
 import numpy as np
 import pytest
 
-from addon.core.dynamic import (ALPHA_MIN, from_fourdgs_arrays, read_dynamic, to_fourdgs, to_fourdgs_arrays,
+from addon.core.dynamic import (from_fourdgs_arrays, read_dynamic, to_fourdgs, to_fourdgs_arrays,
                                 write_dynamic)
 from addon.core.dynamic.splatv import RECORD
-from testing.dynamic_captures import raw_spacetime, same_rotation, write_raw_ply
 from testing import peers
+from testing.dynamic_captures import raw_spacetime, write_raw_ply
+from testing.dynamic_checks import fourdgs_state_matches
 from testing.paths import REPO
 
-
-
-def _state_matches(capture, state, t):
-    """Splatline's at(t) equals fourdgs' state_at(t) on the splats both keep; fourdgs keeps
-    the rest only below Splatline's opacity floor of 1/255."""
-    frame = capture.at(t)
-    theirs = np.asarray(state["indices"])
-    assert set(frame.index) <= set(theirs)
-    extra = np.setdiff1d(theirs, frame.index)
-    assert np.all(np.asarray(state["opacity"])[np.searchsorted(theirs, extra)] < ALPHA_MIN * (1 + 1e-5))
-    rows = np.searchsorted(theirs, frame.index)
-    centres = np.asarray(state["centers"])[rows]
-    tol = 8 * np.finfo(np.float32).eps * (np.abs(centres) + np.abs(capture.motion[frame.index, 0]).sum(1)[:, None]
-                                          * max(1.0, abs(t)) + 1.0)
-    assert np.all(np.abs(frame.splats.positions - centres) <= tol)
-    xyzw = np.asarray(state["orientations"])[rows]
-    assert same_rotation(frame.splats.rotations.astype(np.float64), xyzw[:, [3, 0, 1, 2]]).max() <= 1e-6
-    np.testing.assert_allclose(frame.splats.opacities, np.asarray(state["opacity"])[rows], rtol=2e-6, atol=1e-8)
-    return frame.alive
 
 
 def _linear_capture(tmp_path, n=3000):
@@ -68,7 +49,7 @@ def test_splatline_capture_through_fourdgs(tmp_path):
     assert np.abs(np.sort(back.positions, axis=0) - np.sort(ours.positions, axis=0)).max() < 1e-2
     alive = 0
     for t in (0.0, 0.3, 0.8, 1.2, ours.t_end):
-        alive += _state_matches(back, g.state_at(t, scene.header.cutoff), t)
+        alive += fourdgs_state_matches(back, g.state_at(t, scene.header.cutoff), t)
     assert alive > 0
 
 
@@ -95,7 +76,7 @@ def test_fourdgs_data_through_splatline(tmp_path):
                                   d.win_lo, d.win_hi, cutoff=scene.header.cutoff, duration=scene.duration_sec)
     assert (capture.t_start, capture.t_end, capture.unit) == (0.0, 3.0, "seconds")
     for t in (0.0, 0.5, 1.0, 1.7, 2.999, 3.0):
-        assert _state_matches(capture, scene.state_at(t), t) > 0
+        assert fourdgs_state_matches(capture, scene.state_at(t), t) > 0
 
 
 @pytest.fixture

@@ -110,15 +110,16 @@ def _say_capture_fallback(obj, source) -> None:
           f"looking along its forward axis ({object_axes(obj)} frame), from as far as the other views", flush=True)
 
 
-def build(bpy, path, camera, frames=None, options: Framing = Framing()):
-    """Import `path` into the (empty) scene, add the camera; returns the scene."""
+def build(bpy, path, camera, frames=None, options: Framing = Framing(), axes="AUTO"):
+    """Import `path` into the (empty) scene (its axis convention `axes`, AUTO: the file's),
+    add the camera; returns the scene."""
     from ..blender.data.files import import_file
     from ..core.errors import SplatFormatError
 
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = frame_range(camera, frames)
     try:
-        obj = import_file(bpy.context, path)
+        obj = import_file(bpy.context, path, axes=axes)
     except OSError as exc:
         raise SplatFormatError(path, exc.strerror or str(exc)) from None
     scene.render.film_transparent = True  # a bare capture: alpha is the subject's coverage

@@ -11,11 +11,11 @@ import sys
 from ..core.errors import SplatFormatError
 from ..core.formats import format_for_output, read_with_report, table, write
 from ..core.select import select
-from ..core.splats import AXES
 from ..core.validate import POLICIES, check_values
 from ..core.edit import merge
 from . import UsageError, edits
 from .capture_scene import is_blend
+from .options import add_axes, axes_or_none
 from .writable import check_output_file
 
 
@@ -33,11 +33,7 @@ def configure(parser):
                         help="drop splats less opaque than this (0..1)")
     parser.add_argument("--max-count", type=int, default=None,
                         help="keep at most this many splats, the most important (opacity x volume)")
-    parser.add_argument("--axes", choices=AXES, default=None,
-                        help="the input's axis convention when the file misdeclares it (e.g. RUB "
-                             "for an spz from Niantic's tools; for a .blend object, the frame its "
-                             "data is in: RFU for one Blender's own SPZ importer made); the output "
-                             "is re-expressed in its own")
+    add_axes(parser, blend_input=True)
     parser.add_argument("--object", action="append", default=[], metavar="NAME",
                         help="a splat object of the .blend input to write, its stored data "
                              "object-local as File > Export writes it (repeatable: several merge; "
@@ -64,8 +60,8 @@ def _read(args, path):
     if is_blend(path):
         return [_checked(*_options(args, s, r)) for s, r in _blend_objects(args, path)]
     splats, report = read_with_report(path, sh_degree=args.sh_degree, min_opacity=args.min_opacity,
-                                      max_count=args.max_count, bad=args.bad, axes=args.axes,
-                                      max_splats=args.max_splats)
+                                      max_count=args.max_count, bad=args.bad,
+                                      axes=axes_or_none(args.axes), max_splats=args.max_splats)
     return [_checked(splats, report)]
 
 
@@ -79,7 +75,7 @@ def _checked(splats, report):
 def _blend_objects(args, path):
     from .blend_objects import read_objects
 
-    return read_objects(path, args.object, args.axes)
+    return read_objects(path, args.object, axes_or_none(args.axes))
 
 
 def _options(args, splats, report):

@@ -14,8 +14,8 @@ import os
 from ..core.errors import SplatFormatError
 from ..core.formats import table
 from . import UsageError, UserError
-from ..core.splats import AXES
 from . import framing_options
+from .options import add_axes
 
 
 def configure(parser):
@@ -27,8 +27,7 @@ def configure(parser):
                         help="drop splats less opaque than X (0..1)")
     parser.add_argument("--max-count", type=int, default=0, metavar="N",
                         help="keep the N most important splats per file (0: all)")
-    parser.add_argument("--axes", default="AUTO", choices=("AUTO",) + AXES,
-                        help="axis convention override (default: the file's)")
+    add_axes(parser)
     parser.add_argument("--max-splats", type=int, default=None, metavar="N",
                         help="splat budget: refuse a file claiming more than N splats before "
                              "decompressing it (default: what fits in available memory)")

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..core.edit import statistics
 from ..core.formats import read_with_report, table
+from .options import add_axes, axes_or_none
 
 
 def configure(parser):
@@ -16,14 +17,16 @@ def configure(parser):
     parser.add_argument("--max-splats", type=int, default=None, metavar="N",
                         help="splat budget: refuse a file claiming more than N splats before "
                              "decompressing it (default: what fits in available memory)")
+    add_axes(parser)
     parser.add_argument("--stats", action="store_true",
                         help="also min, max, mean, std and NaN/Inf count of each activated quantity "
                              "(x y z, opacity 0..1, linear scales, volume, DC colour r g b)")
 
 
-def summarize(path, stats=False, max_splats=None) -> dict:
-    """What `info` prints, as a dict (bad values are counted, not dropped)."""
-    splats, report = read_with_report(path, bad="fix", max_splats=max_splats)
+def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
+    """What `info` prints, as a dict (bad values are counted, not dropped); `axes` overrides
+    the file's convention (the bounds are the file's values either way)."""
+    splats, report = read_with_report(path, bad="fix", max_splats=max_splats, axes=axes)
     finite = np.isfinite(splats.positions).all(axis=1) if splats.count else np.zeros(0, bool)
     pos = splats.positions[finite]
     bbox_min = pos.min(axis=0).tolist() if len(pos) else None
@@ -42,7 +45,7 @@ def _fmt_vec(v) -> str:
 
 
 def run(args) -> int:
-    info = summarize(args.file, getattr(args, "stats", False), args.max_splats)
+    info = summarize(args.file, getattr(args, "stats", False), args.max_splats, axes_or_none(args.axes))
     if args.json:
         print(json.dumps(info))
         return 0

@@ -31,6 +31,7 @@ import time
 from . import UsageError, UserError
 from . import framing_options
 from .capture_scene import is_blend
+from .options import add_axes
 from .render_job import render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
@@ -66,6 +67,7 @@ def configure(parser):
     parser.add_argument("--frames", metavar="A-B", help="frame range (or one frame); default: the scene's "
                                                         "(a capture: see --camera and --seconds)")
     framing_options.add_arguments(parser)
+    add_axes(parser)
     parser.add_argument("--step", type=int, metavar="N", help="render every Nth frame; default: the scene's")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--format", type=str.upper, choices=FORMATS,
@@ -277,6 +279,9 @@ def _check_args(args) -> None:
                              "use --format EXR, or drop --half")
     if args.camera is not None and is_blend(args.blend):
         raise UsageError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
+    if args.axes != "AUTO" and is_blend(args.blend):
+        raise UsageError(f"--axes {args.axes}: applies to a capture, not to a .blend (its objects "
+                         "carry their own rotation)")
     args.framing = framing_options.read(args, for_blend=is_blend(args.blend))
 
 
@@ -303,7 +308,7 @@ def _open_scene(args):
         frames = capture_scene.seconds_range(camera, args.framing, frames)
         bpy = blender_session.start()
         _set_frame_size(bpy.context.scene, args)  # the framing fits the frame's aspect
-        capture_scene.build(bpy, args.blend, camera, frames, args.framing)
+        capture_scene.build(bpy, args.blend, camera, frames, args.framing, args.axes)
         if not args.format and not args.preset:
             args.format = "PNG"  # the factory scene's output would be an opaque 8-bit RGB
         return bpy

@@ -23,10 +23,20 @@ def test_info_json(testdata, name):
     s = read(testdata / name)
     assert info["count"] == s.count and info["sh_degree"] == s.sh_degree
     assert info["format"] == ("compressed_ply" if "compressed" in name else name.split(".")[-1])
-    assert info["axes"] == "RDF"
+    assert info["axes"] == s.axes == ("RUB" if name.endswith(".spz") else "RDF")  # SPZ's own frame
     np.testing.assert_array_equal(info["bbox_min"], s.positions.min(axis=0))
     np.testing.assert_array_equal(info["bbox_max"], s.positions.max(axis=0))
     assert info["bad_values"]["nonfinite"] == 0
+
+
+def test_info_takes_the_axes_override(testdata):
+    """--axes as import, convert and render take it: splat-transform 3.7's .spz holds the
+    PLY's frame; the bounds are the file's values either way."""
+    plain = json.loads(cli("info", testdata / "test64.spz", "--json").stdout)
+    r = cli("info", testdata / "test64.spz", "--json", "--axes", "RDF")
+    assert r.returncode == 0, r.stderr
+    said = json.loads(r.stdout)
+    assert (plain["axes"], said["axes"]) == ("RUB", "RDF") and said["bbox_min"] == plain["bbox_min"]
 
 
 def test_info_table(testdata):
@@ -49,9 +59,12 @@ def test_info_reports_bad_values(tmp_path):
 @pytest.mark.parametrize("out_ext", [".ply", ".splat"])
 def test_convert_every_pair(testdata, tmp_path, name, out_ext):
     out = tmp_path / f"out{out_ext}"
-    r = cli("convert", testdata / name, out)
+    # splat-transform 3.7 wrote these .spz in the PLY's frame: said with --axes RDF, the
+    # values go through unturned (without it they are turned from SPZ's RUB)
+    axes = ("--axes", "RDF") if name.endswith(".spz") else ()
+    r = cli("convert", testdata / name, out, *axes)
     assert r.returncode == 0, r.stderr
-    src, got = read(testdata / name), read(out)
+    src, got = read(testdata / name, axes=axes[-1] if axes else None), read(out)
     assert got.count == src.count == 90854
     if out_ext == ".ply":  # float PLY holds what was read: opacity within 1 ulp of 1.0
         np.testing.assert_array_equal(got.positions, src.positions)

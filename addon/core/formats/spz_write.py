@@ -10,7 +10,10 @@ splat-transform 3.7.0 runs through its wasm build:
   rotation   smallest-three, 9 bits a component, largest made positive
   sh         round(v * 128) + 128 snapped to buckets of 8 (band 1, "sh1Bits" 5) or 16 (bands
              2-3, "shRestBits" 4): fewer distinct bytes compress better, as Niantic does
-No axis conversion: the file holds the RDF values, as splat-transform's files do (spz.py).
+The file holds RUB, the frame SPZ documents (spz.py): a set in another frame is re-expressed
+first (positions, rotations and SH bands, core/reframe.py), so Blender 5.3's wm.spz_import and
+Splatline's import of the file agree. No coordinate-system extension is written (RUB is what
+its absence means).
 """
 from __future__ import annotations
 
@@ -20,7 +23,8 @@ import struct
 import numpy as np
 
 from ..errors import SplatFormatError
-from ..splats import SplatSet
+from ..reframe import reframe
+from ..splats import AXES_RUB, SplatSet
 from ._common import write_file
 from .spz import COLOR_SCALE, MAGIC
 
@@ -101,7 +105,7 @@ def encode_blocks(splats: SplatSet) -> tuple[int, list]:
 def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
     if version not in VERSIONS:
         raise SplatFormatError(None, f"cannot write spz version {version} (writable: 3, 4)")
-    splats.check()
+    splats = reframe(splats.check(), AXES_RUB)
     frac, blocks = encode_blocks(splats)
     n, degree = splats.count, splats.sh_degree
     if version == 3:

@@ -8,19 +8,17 @@ import numpy as np
 
 from ..core.edit import statistics
 from ..core.formats import read_with_report, table
-from .options import add_axes, axes_or_none
+from .options import add_axes, add_max_splats, axes_or_none
 
 
 def configure(parser):
     parser.add_argument("file", help=f"a {table.readable_help()} file")
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--max-splats", type=int, default=None, metavar="N",
-                        help="splat budget: refuse a file claiming more than N splats before "
-                             "decompressing it (default: what fits in available memory)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object (default: a table)")
+    add_max_splats(parser)
     add_axes(parser)
     parser.add_argument("--stats", action="store_true",
                         help="also min, max, mean, std and NaN/Inf count of each activated quantity "
-                             "(x y z, opacity 0..1, linear scales, volume, DC colour r g b)")
+                             "(x y z, opacity 0..1, linear scales, volume, DC colour r g b; default: off)")
 
 
 def summarize(path, stats=False, max_splats=None, axes=None) -> dict:

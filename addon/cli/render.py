@@ -31,7 +31,7 @@ import time
 from . import UsageError, UserError
 from . import framing_options
 from .capture_scene import is_blend
-from .options import add_axes
+from .options import add_axes, preset_names
 from .render_job import render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
@@ -74,19 +74,21 @@ def configure(parser):
                         help="EXR (multilayer, Combined + Depth), PNG (8-bit) or MP4 (H.264); "
                              "default: the .blend's own output settings")
     output.add_argument("--preset", metavar="NAME",
-                        help="a render-output preset (presets/render/, or one saved in Blender), "
-                             "e.g. exr_half_multilayer, exr_float, png_16bit, h264_mp4, prores_422, "
-                             "preview; other flags given override it")
-    parser.add_argument("--half", action="store_true", help="EXR: half floats instead of full floats")
-    parser.add_argument("--resolution", metavar="WxH", help="output size in pixels (percentage set to 100)")
+                        help=f"a render-output preset: {preset_names('render', '.py')} "
+                             "(presets/render/), or one saved in Blender; other flags given "
+                             "override it (default: none)")
+    parser.add_argument("--half", action="store_true", help="EXR: half floats instead of full floats (default: full)")
+    parser.add_argument("--resolution", metavar="WxH", help="output size in pixels, percentage set to 100 (default: the .blend's; "
+                             "1920x1080 for a capture)")
     parser.add_argument("--engine-option", action="append", default=[], metavar="NAME=VALUE",
                         help="a Splatline render setting, e.g. key_bits=16, gpu_sort=off, "
                              "antialiased=on, renderer=REFERENCE|GPU_MODULE|OFFSCREEN|AUTO, "
                              "motion_blur_samples=8 (with the .blend's motion blur on), "
                              "meshes=DRAW|HOLDOUT|IGNORE, mesh_engine=WORKBENCH|EEVEE|CYCLES "
-                             "(repeatable)")
+                             "(repeatable; default: the .blend's settings)")
     parser.add_argument("--keep-stamp", action="store_true",
-                        help="keep the render date, time, frame and host in the files' metadata (not reproducible)")
+                        help="keep the render date, time, frame and host in the files' metadata (not "
+                             "reproducible; default: off)")
 
 
 def parse_frames(text: str) -> tuple[int, int]:

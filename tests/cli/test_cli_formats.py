@@ -75,7 +75,7 @@ def test_convert_every_pair(testdata, tmp_path, name, out_ext):
 
 def test_convert_options(testdata, tmp_path):
     out = tmp_path / "small.ply"
-    r = cli("convert", testdata / "test64.ply", out, "--sh-degree", "1", "--min-opacity", "0.2",
+    r = cli("convert", testdata / "test64.ply", out, "--max-sh-degree", "1", "--min-opacity", "0.2",
             "--max-count", "10")
     assert r.returncode == 0, r.stderr
     s, src = read(out), read(testdata / "test64.ply")
@@ -127,7 +127,7 @@ def test_convert_refuses_zero_splats(tmp_path, out_ext):
 
 def test_convert_refuses_when_the_options_leave_no_splats(testdata, tmp_path):
     out = tmp_path / "out.splat"  # a 0-splat .splat is a 0-byte file the reader rejects
-    line = one_error_line(cli("convert", testdata / "test64.ply", out, "--max-count", "0"))
+    line = one_error_line(cli("convert", testdata / "test64.ply", out, "--keep-where", "opacity>2"))
     assert str(testdata / "test64.ply") in line and "no splats left" in line
     assert not out.exists()
 

@@ -24,7 +24,7 @@ import time
 
 from . import UsageError, UserError, framing_options
 from .options import add_axes
-from .render import check_frame_memory, parse_frames, parse_resolution
+from .render import check_frame_memory, check_out_creatable, parse_frames, parse_resolution
 from ..core import budget
 from ..core.formats._common import splat_bytes
 from .render_job import render_animation
@@ -89,6 +89,7 @@ def _check(args) -> tuple[int, int]:
     if os.path.exists(args.out) and not os.path.isdir(args.out):  # os.makedirs: "File exists"
         raise UserError(f"--out {args.out}: exists and is not a folder (the demo writes "
                         "demo.blend, exr/, demo.mp4 and demo.png into a folder)")
+    check_out_creatable(args.out, "the demo's files")  # before the capture is read
     if args.axes != "AUTO" and not args.file:
         raise UsageError(f"--axes {args.axes}: applies to a --file capture, not to the knot")
     if args.file and os.path.isdir(args.file):  # as `info` says it

@@ -15,6 +15,7 @@ from ..core.errors import SplatFormatError
 from ..core.formats import table
 from . import UsageError, UserError
 from . import framing_options
+from .writable import check_output_file
 from .options import add_axes, add_bad_values, add_selection, check_selection, preset_names
 
 
@@ -34,11 +35,9 @@ def configure(parser):
 
 def _check_args(args) -> None:
     check_selection(args, UsageError)
-    out_dir = os.path.dirname(os.path.abspath(args.blend))
-    if not os.path.isdir(out_dir):
-        raise UserError(f"{args.blend}: folder {out_dir} does not exist")
     if os.path.isdir(args.blend):
         raise UserError(f"{args.blend}: is a directory")
+    check_output_file(args.blend, "the .blend")  # before any file is read: one line
     args.framing = framing_options.read(args)
 
 

@@ -188,6 +188,7 @@ def read_spz(path, max_degree: int = 3, max_splats=None) -> SplatSet:
         raise SplatFormatError(path, "not an spz file (neither gzip nor NGSP magic)")
     s = _decode(head, blocks, max_degree)
     s.axes = axes
+    s.antialiased = bool(head[4] & FLAG_ANTIALIASED)
     return s
 
 

@@ -26,7 +26,7 @@ from ..errors import SplatFormatError
 from ..reframe import reframe
 from ..splats import AXES_RUB, SplatSet
 from ._common import write_file
-from .spz import COLOR_SCALE, MAGIC
+from .spz import COLOR_SCALE, FLAG_ANTIALIASED, MAGIC
 
 VERSIONS = (3, 4)
 FRACTIONAL_BITS = 12
@@ -108,8 +108,9 @@ def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
     splats = reframe(splats.check(), AXES_RUB)
     frac, blocks = encode_blocks(splats)
     n, degree = splats.count, splats.sh_degree
+    flags = FLAG_ANTIALIASED if splats.antialiased else 0
     if version == 3:
-        head = struct.pack("<4sIIBBBB", MAGIC, 3, n, degree, frac, 0, 0)
+        head = struct.pack("<4sIIBBBB", MAGIC, 3, n, degree, frac, flags, 0)
         return gzip.compress(head + b"".join(blocks), compresslevel=6, mtime=0)
     import zstandard
 
@@ -117,7 +118,7 @@ def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
         blocks = blocks[:5]
     cctx = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
     streams = [cctx.compress(b) for b in blocks]
-    head = struct.pack("<4sIIBBBBI", MAGIC, 4, n, degree, frac, 0, len(blocks), 32).ljust(32, b"\0")
+    head = struct.pack("<4sIIBBBBI", MAGIC, 4, n, degree, frac, flags, len(blocks), 32).ljust(32, b"\0")
     toc = b"".join(struct.pack("<QQ", len(c), len(b)) for c, b in zip(streams, blocks))
     return head + toc + b"".join(streams)
 

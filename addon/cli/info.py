@@ -1,4 +1,5 @@
-"""python -m addon info FILE [--json]: count, SH degree, format, axes, bounds, bad values."""
+"""python -m addon info FILE [--json]: count, SH degree, format, axes, whether the capture was
+trained with anti-aliasing, bounds, bad values."""
 from __future__ import annotations
 
 import json
@@ -31,7 +32,7 @@ def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
     bbox_max = pos.max(axis=0).tolist() if len(pos) else None
     return {
         "file": os.fspath(path), "format": report.format, "count": splats.count,
-        "sh_degree": splats.sh_degree, "axes": splats.axes,
+        "sh_degree": splats.sh_degree, "axes": splats.axes, "antialiased": splats.antialiased,
         "bbox_min": bbox_min, "bbox_max": bbox_max,
         "bad_values": report.bad.as_dict(),
         "file_bytes": os.path.getsize(path),
@@ -51,6 +52,7 @@ def run(args) -> int:
     rows = [
         ("file", info["file"]), ("format", info["format"]), ("splats", f"{info['count']:,}"),
         ("SH degree", info["sh_degree"]), ("axes", info["axes"]),
+        ("anti-aliased", "yes (trained so: rendered with the compensation)" if info["antialiased"] else "no"),
         ("bbox min", _fmt_vec(info["bbox_min"])), ("bbox max", _fmt_vec(info["bbox_max"])),
         ("NaN/Inf splats", bad["nonfinite"]), ("zero quaternions", bad["zero_quaternions"]),
         ("non-positive scales", bad["nonpositive_scales"]),

@@ -190,3 +190,14 @@ def test_memory_error_is_one_line(monkeypatch, capsys):
     assert main(["info", "whatever.ply"]) == 1
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "out of memory" in lines[0], lines
+
+
+def test_info_shows_the_antialiased_mark(testdata, tmp_path):
+    from dataclasses import replace
+
+    from addon.core.formats import write
+
+    write(tmp_path / "aa.spz", replace(read(testdata / "test64.ply"), antialiased=True))
+    assert json.loads(cli("info", tmp_path / "aa.spz", "--json").stdout)["antialiased"] is True
+    assert json.loads(cli("info", testdata / "test64.ply", "--json").stdout)["antialiased"] is False
+    assert "anti-aliased         yes" in cli("info", tmp_path / "aa.spz").stdout

@@ -116,3 +116,36 @@ def test_written_spz_is_rub_and_reads_back_in_the_sources_place(tmp_path, testda
     step = 2.0 ** -13
     assert np.abs(raw.positions - src.positions * [1, -1, -1]).max() <= step
     assert np.abs(reframe(raw, "RDF").positions - src.positions).max() <= step
+
+
+@pytest.mark.parametrize("version", [4, 3])
+def test_antialiased_flag_reads_and_writes(tmp_path, testdata, version):
+    """SPZ header flag 0x1 (Niantic: trained with anti-aliasing) <-> SplatSet.antialiased."""
+    from dataclasses import replace
+
+    from addon.core.formats import write
+
+    src = read(testdata / "test64.ply")
+    assert not read(testdata / "test64.spz").antialiased
+    for flag in (True, False):
+        path = tmp_path / f"{flag}.spz"
+        write(path, replace(src, antialiased=flag), version=version)
+        assert read(path).antialiased is flag
+    raw = (testdata / "test64.spz").read_bytes()
+    path.write_bytes(raw[:14] + bytes([raw[14] | 0x1]) + raw[15:])  # splat-transform's file, flagged
+    assert read(path).antialiased
+
+
+@pytest.mark.parametrize("comments, flag", [
+    (["SplatRenderMode: mip"], True), (["  SPLATRENDERMODE:  MIP "], True), (["antialiased 1"], True),
+    (["antialiased 0"], False), (["SplatRenderMode: default"], False), (["written by x"], False),
+    (["antialiased 1", "SplatRenderMode: default"], False),  # the last one wins, as Brush reads
+    (["SplatRenderMode: default", "antialiased 1"], True), (["SplatRenderMode: 2dgs"], False)])
+def test_ply_comments_mark_antialiased_training(tmp_path, testdata, comments, flag):
+    """Brush's `SplatRenderMode: mip` and Postshot's `antialiased 1`, as splat-transform reads them."""
+    raw = (testdata / "test64.ply").read_bytes()
+    head = b"".join(f"comment {c}\n".encode() for c in comments)
+    cut = raw.index(b"element vertex")
+    path = tmp_path / "c.ply"
+    path.write_bytes(raw[:cut] + head + raw[cut:])
+    assert read(path).antialiased is flag

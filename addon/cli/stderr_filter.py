@@ -31,8 +31,11 @@ import sys
 
 PROBE_LINE = rb"EGL Error (0x3009): EGL_BAD_MATCH:"
 
+# The pump ignores Ctrl+C: a terminal sends SIGINT to the whole process group, and the
+# render's own "interrupted" lines still have to pass through it; it ends when the pipe closes.
 _PUMP = (
-    "import re, sys\n"
+    "import re, signal, sys\n"
+    "signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
     "src, dst = sys.stdin.buffer, sys.stdout.buffer\n"
     "drop, temporary = %r, re.compile(%r)\n"
     "for line in iter(src.readline, b''):\n"

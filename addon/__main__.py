@@ -43,6 +43,7 @@ def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
     # allow_abbrev=False: `--sh-degre` is a misspelling to report, not --sh-degree; an
     # abbreviation accepted today would change meaning when a longer option is added.
     parser = argparse.ArgumentParser(prog=prog, description="Splatline command line", allow_abbrev=False)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, help_text in COMMANDS.items():
         module = importlib.import_module(f".cli.{name}", __package__)
@@ -53,6 +54,23 @@ def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
                              help="memory budget, e.g. 1.5G: a file or option that would need more is "
                                   "refused before allocating (default: available memory with headroom)")
     return parser
+
+
+def version() -> str:
+    """blender_manifest.toml's version (beside addon/ in the checkout, the extension and the
+    pip install alike), else the installed distribution's."""
+    import tomllib
+
+    manifest = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "blender_manifest.toml")
+    try:
+        with open(manifest, "rb") as f:
+            return str(tomllib.load(f)["version"])
+    except (OSError, KeyError, tomllib.TOMLDecodeError):
+        from importlib import metadata
+        try:
+            return metadata.version("splatline")
+        except metadata.PackageNotFoundError:
+            return "(version unknown)"
 
 
 def _size(text: str) -> int:

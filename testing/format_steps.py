@@ -28,7 +28,12 @@ def same_rotation(back, ref, half_step):
 
 
 def assert_spz_within_steps(back, src):
-    """back (read from an .spz written from src) within SPZ's steps of src, splat by splat."""
+    """back (read from an .spz written from src) within SPZ's steps of src, splat by splat.
+    The file holds RUB (SPZ's frame: the writer turns a set in another), so back is turned
+    into src's frame first: a half or quarter turn about x moves no value off its step."""
+    from addon.core.reframe import reframe
+
+    back = reframe(back, src.axes)
     assert back.count == src.count and back.sh_degree == src.sh_degree
     tol32 = np.abs(src.positions) * 1.2e-7  # float32 rounding of the decoded value
     assert (np.abs(back.positions - src.positions) <= 0.5 / 4096 + tol32).all()

@@ -136,12 +136,13 @@ def own_frames(obj) -> tuple[int, int] | None:
     return start, start + max(int(round(span)), 0)
 
 
-def build(bpy, path, camera, frames=None, options: Framing = Framing()):
-    """Import `path` into the (empty) scene, add the camera; returns the scene. A dynamic
-    capture with no --frames or --seconds plays its own time range."""
+def build(bpy, path, camera, frames=None, options: Framing = Framing(), axes="AUTO"):
+    """Import `path` into the (empty) scene (its axis convention `axes`, AUTO: the file's),
+    add the camera; returns the scene. A dynamic capture with no --frames or --seconds
+    plays its own time range."""
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = frame_range(camera, frames)
-    obj = import_capture(bpy, path)
+    obj = import_capture(bpy, path, axes=axes)
     if frames is None and own_frames(obj) is not None:
         frames = own_frames(obj)
         scene.frame_start, scene.frame_end = frames

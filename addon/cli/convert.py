@@ -12,11 +12,11 @@ from ..core.dynamic import is_dynamic_file
 from ..core.errors import SplatFormatError
 from ..core.formats import format_for_output, read_with_report, table, write
 from ..core.select import select
-from ..core.splats import AXES
-from ..core.validate import POLICIES, check_values
+from ..core.validate import check_values
 from ..core.edit import merge
 from . import UsageError, dynamic_capture, edits
 from .capture_scene import is_blend
+from .options import add_axes, add_bad_values, add_selection, axes_or_none, check_selection
 from .writable import check_output_file
 
 
@@ -28,34 +28,20 @@ def configure(parser):
                                        "a path named meta.json writes an unbundled SOG beside it)")
     parser.add_argument("--spz-version", type=int, choices=(3, 4), default=4,
                         help="SPZ version to write: 4 (zstd streams, default) or 3 (gzip)")
-    parser.add_argument("--sh-degree", type=int, choices=range(4), default=None,
-                        help="keep SH bands up to this degree")
-    parser.add_argument("--min-opacity", type=float, default=None,
-                        help="drop splats less opaque than this (0..1)")
-    parser.add_argument("--max-count", type=int, default=None,
-                        help="keep at most this many splats, the most important (opacity x volume)")
-    parser.add_argument("--axes", choices=AXES, default=None,
-                        help="the input's axis convention when the file misdeclares it (e.g. RUB "
-                             "for an spz from Niantic's tools; for a .blend object, the frame its "
-                             "data is in: RFU for one Blender's own SPZ importer made); the output "
-                             "is re-expressed in its own")
+    add_axes(parser, blend_input=True)
     parser.add_argument("--object", action="append", default=[], metavar="NAME",
                         help="a splat object of the .blend input to write, its stored data "
                              "object-local as File > Export writes it (repeatable: several merge; "
                              "default: the .blend's one splat object)")
-    parser.add_argument("--max-splats", type=int, default=None, metavar="N",
-                        help="splat budget: refuse a file claiming more than N splats before "
-                             "decompressing it (default: what fits in available memory)")
-    parser.add_argument("--bad", choices=POLICIES, default="drop",
-                        help="splats with NaN/Inf, zero quaternions or scales <= 0: drop (default), "
-                             "fix (neutralise: invisible / identity rotation / |scale|) or error")
+    add_selection(parser, sh_alias="--sh-degree")
+    add_bad_values(parser, alias="--bad")
     dynamic = parser.add_argument_group("dynamic (4D) captures")
     dynamic.add_argument("--time", type=float, default=None, metavar="T",
                          help="bake the capture at its time T (its own unit) to a static file")
     dynamic.add_argument("--frames", default=None, metavar="A-B",
                          help="bake scene frames A-B to a numbered sequence (the output names "
                               "each file with #'s), the capture's time 0 at frame 1")
-    dynamic.add_argument("--fps", type=float, default=24.0,
+    dynamic.add_argument("--fps", type=float, default=None,
                          help="scene frame rate for --frames (default 24): a capture in seconds "
                               "plays in real time, a Spacetime segment spans 50 frames")
     dynamic.add_argument("--seconds-per-unit", type=float, default=None, metavar="S",
@@ -75,9 +61,10 @@ def _refuse_empty(path, count_in_file: int, count_kept: int) -> None:
 def _read(args, path):
     if is_blend(path):
         return [_checked(*_options(args, s, r)) for s, r in _blend_objects(args, path)]
-    splats, report = read_with_report(path, sh_degree=args.sh_degree, min_opacity=args.min_opacity,
-                                      max_count=args.max_count, bad=args.bad, axes=args.axes,
-                                      max_splats=args.max_splats)
+    splats, report = read_with_report(path, sh_degree=args.max_sh_degree,
+                                      min_opacity=args.min_opacity or None,
+                                      max_count=args.max_count or None, bad=args.bad_values,
+                                      axes=axes_or_none(args.axes), max_splats=args.max_splats)
     return [_checked(splats, report)]
 
 
@@ -91,13 +78,14 @@ def _checked(splats, report):
 def _blend_objects(args, path):
     from .blend_objects import read_objects
 
-    return read_objects(path, args.object, args.axes)
+    return read_objects(path, args.object, axes_or_none(args.axes))
 
 
 def _options(args, splats, report):
     """What read_with_report does after decoding, for splats read from a .blend object."""
-    splats, report.bad = check_values(splats, args.bad, report.path)
-    return select(splats, args.sh_degree, args.min_opacity, args.max_count).check(), report
+    splats, report.bad = check_values(splats, args.bad_values, report.path)
+    kept = select(splats, args.max_sh_degree, args.min_opacity or None, args.max_count or None)
+    return kept.check(), report
 
 
 def _check_inputs(args) -> None:
@@ -116,6 +104,7 @@ def run(args) -> int:
         raise UsageError("--time and --frames bake a dynamic (4D) capture; "
                          f"{', '.join(args.input)} holds none")
     fmt = format_for_output(args.output)  # fail on a bad output name or flag before reading
+    check_selection(args, UsageError)
     edits.check(args)
     _check_inputs(args)
     check_output_file(args.output, f"the {fmt} output")

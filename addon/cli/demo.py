@@ -22,53 +22,76 @@ import os
 import statistics
 import time
 
-from . import UsageError, UserError
-from .render import MAX_FRAME, check_frame_memory, parse_resolution
+from . import UsageError, UserError, framing_options
+from .options import add_axes
+from .render import check_frame_memory, check_out_creatable, parse_frames, parse_resolution
 from ..core import budget
 from ..core.formats._common import splat_bytes
 from .render_job import render_animation
 
 DEFAULT_OUT = os.path.join("out", "demo")
+DEFAULT_FRAMES = 120  # five seconds at 24 fps
+DEFAULT_RESOLUTION = "640x360"
 MIN_FRAMES = 6  # one frame or more per act of the animation
 
 
 def configure(parser):
     parser.add_argument("--file", metavar="CAPTURE",
-                        help="a splat file (any readable format) to use instead of the torus knot")
-    parser.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                        help=f"output folder (default: {DEFAULT_OUT})")
-    parser.add_argument("--frames", type=int, default=120, metavar="N",
-                        help=f"animation length in frames, at --fps (default: 120, at least {MIN_FRAMES})")
-    parser.add_argument("--fps", type=int, default=24, help="frame rate (default: 24)")
-    parser.add_argument("--resolution", default="640x360", metavar="WxH",
-                        help="frame size, even numbers for H.264 (default: 640x360)")
+                        help="a splat file (any readable format) to use instead of the torus knot "
+                             "(default: none, the knot)")
+    add_axes(parser)
+    parser.add_argument("--out", metavar="DIR", help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument("--frames", metavar="A-B",
+                        help=f"frame range to render (or one frame); the animation runs from frame 1 "
+                             f"to B, at least {MIN_FRAMES} frames (default: 1-{DEFAULT_FRAMES}, or "
+                             "--seconds)")
+    parser.add_argument("--seconds", metavar="S",
+                        help="length in seconds, instead of --frames: frames 1 to round(S x fps) "
+                             f"(default: {DEFAULT_FRAMES} frames)")
+    parser.add_argument("--fps", metavar="N",
+                        help=f"frames per second, {framing_options.MIN_FPS}-{framing_options.MAX_FPS} "
+                             f"(fractions such as 29.97 allowed; default: {framing_options.DEFAULT_FPS})")
+    parser.add_argument("--resolution", metavar="WxH",
+                        help=f"frame size, even numbers for H.264 (default: {DEFAULT_RESOLUTION})")
     parser.add_argument("--splats", type=int, default=300_000, metavar="N",
                         help="splats in the knot, or the cap on the capture's (default: 300000); "
                              "the morph target gets as many (paired by index), or three quarters "
                              "of a --file capture's (paired by spatial sort)")
     parser.add_argument("--z", action="store_true",
-                        help="also render the Z pass into the EXRs (a Z frame costs about 1.1-1.3x a colour frame)")
+                        help="also render the Z pass into the EXRs (a Z frame costs about 1.1-1.3x a "
+                             "colour frame; default: off)")
 
 
 def _check(args) -> tuple[int, int]:
+    args.out = args.out or DEFAULT_OUT
+    args.resolution = args.resolution or DEFAULT_RESOLUTION
     width, height = parse_resolution(args.resolution)
     if width % 2 or height % 2:
         raise UsageError(f"--resolution {args.resolution}: H.264 needs an even width and height")
-    if args.frames < MIN_FRAMES:
-        raise UsageError(f"--frames {args.frames}: the animation needs at least {MIN_FRAMES} frames")
-    if args.frames > MAX_FRAME:
-        raise UsageError(f"--frames {args.frames}: at most {MAX_FRAME} (Blender's limit)")
+    timing = framing_options.read(args)  # --fps, --seconds; both with --frames refused
+    args.fps = timing.fps or framing_options.DEFAULT_FPS
+    if args.frames:
+        args.first, args.last = parse_frames(args.frames)
+        if args.last < MIN_FRAMES:
+            raise UsageError(f"--frames {args.frames}: the animation (frames 1-{args.last}) needs at "
+                             f"least {MIN_FRAMES} frames")
+    else:
+        args.first, args.last = 1, timing.frame_count(args.fps) or DEFAULT_FRAMES
+        if args.last < MIN_FRAMES:
+            raise UsageError(f"--seconds {args.seconds}: {args.last} frames at {args.fps:g} fps; the "
+                             f"animation needs at least {MIN_FRAMES}")
     if args.splats < 1:
         raise UsageError(f"--splats {args.splats}: must be at least 1")
     check_frame_memory(f"--resolution {args.resolution}", width, height)
     # the showcase's splats, its morph target and their evaluated copy, with degree-3 SH
     budget.check(f"--splats {args.splats}", 3 * splat_bytes(args.splats, 45), "--max-memory",
                  "the splats, the morph target and their evaluated copy")
-    if args.fps < 1:
-        raise UsageError(f"--fps {args.fps}: must be at least 1")
     if os.path.exists(args.out) and not os.path.isdir(args.out):  # os.makedirs: "File exists"
         raise UserError(f"--out {args.out}: exists and is not a folder (the demo writes "
                         "demo.blend, exr/, demo.mp4 and demo.png into a folder)")
+    check_out_creatable(args.out, "the demo's files")  # before the capture is read
+    if args.axes != "AUTO" and not args.file:
+        raise UsageError(f"--axes {args.axes}: applies to a --file capture, not to the knot")
     if args.file and os.path.isdir(args.file):  # as `info` says it
         raise UserError(f"{args.file}: is a directory, not a splat file")
     if args.file and not os.path.isfile(args.file):
@@ -117,6 +140,7 @@ def run(args) -> int:
     from . import blender_session
 
     bpy = blender_session.start()
+    from ..blender.data.capture_camera import set_frame_rate
     from ..blender.demo import scene as demo_scene, video as demo_video
 
     scene = bpy.context.scene
@@ -124,15 +148,18 @@ def run(args) -> int:
     print(f"building the demo scene from {what}", flush=True)
     t = time.perf_counter()
     source, target, _camera = demo_scene.build(
-        bpy.context, splats=args.splats, frames=args.frames, fps=args.fps, file=args.file,
+        bpy.context, splats=args.splats, frames=args.last, file=args.file, axes=args.axes,
         aspect=width / height)
+    set_frame_rate(scene, args.fps)
+    scene.frame_start = args.first  # the animation runs from 1; --frames A-B renders A..B of it
     _setup_render(bpy, scene, width, height, args.z)
     blend = os.path.join(out, "demo.blend")
     blender_session.save_blend(bpy, blend)  # no demo.blend1 beside it
     print(f"built {source.name} ({len(source.data.points):,} splats) morphing into {target.name} "
           f"({len(target.data.points):,}) in {time.perf_counter() - t:.1f} s; saved {blend}", flush=True)
 
-    print(f"rendering {args.frames} frames at {width}x{height} with the Splatline engine", flush=True)
+    print(f"rendering frames {args.first}-{args.last} at {width}x{height} with the Splatline engine",
+          flush=True)
     t = time.perf_counter()
     _clear_old_frames(os.path.join(out, "exr"))
     times = _render_exr(bpy, scene)
@@ -142,8 +169,8 @@ def run(args) -> int:
     t = time.perf_counter()
     video_scene = demo_video.encoding_scene(scene, frames[0], len(frames))
     mp4 = demo_video.encode(video_scene, os.path.join(out, "demo.mp4"))
-    png = demo_video.still(video_scene, demo_scene.showcase_frame(args.frames),
-                           os.path.join(out, "demo.png"))
+    shown = min(max(demo_scene.showcase_frame(args.last) - args.first + 1, 1), len(frames))
+    png = demo_video.still(video_scene, shown, os.path.join(out, "demo.png"))
     demo_video.remove_scene(video_scene)
     video_s = time.perf_counter() - t
 

@@ -10,19 +10,22 @@ from . import UsageError
 def add_arguments(parser) -> None:
     g = parser.add_argument_group("edits (applied in this order)")
     g.add_argument("--translate", nargs=3, type=float, metavar=("X", "Y", "Z"),
-                   help="move every splat by X Y Z, after --rotate and --scale")
+                   help="move every splat by X Y Z, after --rotate and --scale (default: no move)")
     g.add_argument("--rotate", nargs=3, type=float, metavar=("X", "Y", "Z"),
-                   help="turn by X, then Y, then Z degrees about the origin (SH colour turns too)")
-    g.add_argument("--scale", type=float, metavar="S", help="grow positions and sizes by S about the origin")
+                   help="turn by X, then Y, then Z degrees about the origin (SH colour turns too; "
+                        "default: no turn)")
+    g.add_argument("--scale", type=float, metavar="S", help="grow positions and sizes by S about the origin (default 1)")
     g.add_argument("--keep-box", nargs=6, type=float, metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
-                   help="keep splats whose centre lies in the box from X0 Y0 Z0 to X1 Y1 Z1")
+                   help="keep splats whose centre lies in the box from X0 Y0 Z0 to X1 Y1 Z1 "
+                        "(default: no box)")
     g.add_argument("--keep-sphere", nargs=4, type=float, metavar=("X", "Y", "Z", "R"),
-                   help="keep splats whose centre lies within R of X Y Z")
+                   help="keep splats whose centre lies within R of X Y Z (default: no sphere)")
     g.add_argument("--keep-where", action="append", default=[], metavar="TEST",
                    help="keep splats passing TEST, e.g. 'opacity>0.05' or 'scale<2'; quantities: "
-                        f"{', '.join(edit.COLUMNS)} (activated: opacity 0..1, linear scales); repeatable")
+                        f"{', '.join(edit.COLUMNS)} (activated: opacity 0..1, linear scales); repeatable (default: none)")
     g.add_argument("--decimate", metavar="N|P%",
-                   help="keep the N (or P percent) most important splats (opacity x volume)")
+                   help="keep the N (or P percent) most important splats (opacity x volume; "
+                        "default: all)")
 
 
 def check(args) -> None:

@@ -14,43 +14,30 @@ import os
 from ..core.errors import SplatFormatError
 from ..core.formats import table
 from . import UsageError, UserError
-from ..core.splats import AXES
 from . import framing_options
+from .writable import check_output_file
+from .options import add_axes, add_bad_values, add_selection, check_selection, preset_names
 
 
 def configure(parser):
     parser.add_argument("files", nargs="+", metavar="FILE", help=f"{table.readable_help()} files")
     parser.add_argument("--blend", required=True, metavar="OUT.blend", help="the .blend file to write")
-    parser.add_argument("--max-sh-degree", type=int, default=3, choices=range(4), metavar="N",
-                        help="keep SH bands up to N (0..3, default 3)")
-    parser.add_argument("--min-opacity", type=float, default=0.0, metavar="X",
-                        help="drop splats less opaque than X (0..1)")
-    parser.add_argument("--max-count", type=int, default=0, metavar="N",
-                        help="keep the N most important splats per file (0: all)")
-    parser.add_argument("--axes", default="AUTO", choices=("AUTO",) + AXES,
-                        help="axis convention override (default: the file's)")
-    parser.add_argument("--max-splats", type=int, default=None, metavar="N",
-                        help="splat budget: refuse a file claiming more than N splats before "
-                             "decompressing it (default: what fits in available memory)")
-    parser.add_argument("--bad-values", default="fix", choices=("fix", "drop", "error"),
-                        help="NaN/Inf splats, zero quaternions and scales <= 0: neutralise, drop or refuse")
+    add_selection(parser)
+    add_axes(parser)
+    add_bad_values(parser)
     parser.add_argument("--effect-preset", action="append", default=[], metavar="NAME",
-                        help="apply an effect preset (presets/effects/) to every imported object, "
-                             "keyed from the scene's start frame (repeatable); 'morph' needs two "
-                             "files and morphs the first into the second")
+                        help="apply an effect preset to every imported object, keyed from the "
+                             "scene's start frame (repeatable; default: none): "
+                             f"{preset_names('effects', '.json')} (presets/effects/), or one saved "
+                             "in Blender; 'morph' needs two files and morphs the first into the second")
     framing_options.add_arguments(parser, render=False)
 
 
 def _check_args(args) -> None:
-    if not 0.0 <= args.min_opacity <= 1.0:
-        raise UsageError(f"--min-opacity {args.min_opacity:g} is outside 0..1")
-    if args.max_count < 0:
-        raise UsageError(f"--max-count {args.max_count} is negative")
-    out_dir = os.path.dirname(os.path.abspath(args.blend))
-    if not os.path.isdir(out_dir):
-        raise UserError(f"{args.blend}: folder {out_dir} does not exist")
+    check_selection(args, UsageError)
     if os.path.isdir(args.blend):
         raise UserError(f"{args.blend}: is a directory")
+    check_output_file(args.blend, "the .blend")  # before any file is read: one line
     args.framing = framing_options.read(args)
 
 

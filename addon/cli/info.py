@@ -1,4 +1,5 @@
-"""python -m addon info FILE [--json]: count, SH degree, format, axes, bounds, bad values."""
+"""python -m addon info FILE [--json]: count, SH degree, format, axes, whether the capture was
+trained with anti-aliasing, bounds, bad values."""
 from __future__ import annotations
 
 import json
@@ -10,29 +11,30 @@ from ..core.dynamic import is_dynamic_file
 from ..core.edit import statistics
 from ..core.formats import read_with_report, table
 from . import dynamic_capture
+from .options import add_axes, add_max_splats, axes_or_none
 
 
 def configure(parser):
     parser.add_argument("file", help=f"a {table.readable_help()} file")
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--max-splats", type=int, default=None, metavar="N",
-                        help="splat budget: refuse a file claiming more than N splats before "
-                             "decompressing it (default: what fits in available memory)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object (default: a table)")
+    add_max_splats(parser)
+    add_axes(parser)
     parser.add_argument("--stats", action="store_true",
                         help="also min, max, mean, std and NaN/Inf count of each activated quantity "
-                             "(x y z, opacity 0..1, linear scales, volume, DC colour r g b)")
+                             "(x y z, opacity 0..1, linear scales, volume, DC colour r g b; default: off)")
 
 
-def summarize(path, stats=False, max_splats=None) -> dict:
-    """What `info` prints, as a dict (bad values are counted, not dropped)."""
-    splats, report = read_with_report(path, bad="fix", max_splats=max_splats)
+def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
+    """What `info` prints, as a dict (bad values are counted, not dropped); `axes` overrides
+    the file's convention (the bounds are the file's values either way)."""
+    splats, report = read_with_report(path, bad="fix", max_splats=max_splats, axes=axes)
     finite = np.isfinite(splats.positions).all(axis=1) if splats.count else np.zeros(0, bool)
     pos = splats.positions[finite]
     bbox_min = pos.min(axis=0).tolist() if len(pos) else None
     bbox_max = pos.max(axis=0).tolist() if len(pos) else None
     return {
         "file": os.fspath(path), "format": report.format, "count": splats.count,
-        "sh_degree": splats.sh_degree, "axes": splats.axes,
+        "sh_degree": splats.sh_degree, "axes": splats.axes, "antialiased": splats.antialiased,
         "bbox_min": bbox_min, "bbox_max": bbox_max,
         "bad_values": report.bad.as_dict(),
         "file_bytes": os.path.getsize(path),
@@ -49,7 +51,7 @@ def run(args) -> int:
         info = dynamic_capture.summary(args.file, stats, args.max_splats)
         print(json.dumps(info)) if args.json else dynamic_capture.print_summary(info)
         return 0
-    info = summarize(args.file, stats, args.max_splats)
+    info = summarize(args.file, stats, args.max_splats, axes_or_none(args.axes))
     if args.json:
         print(json.dumps(info))
         return 0
@@ -57,6 +59,7 @@ def run(args) -> int:
     rows = [
         ("file", info["file"]), ("format", info["format"]), ("splats", f"{info['count']:,}"),
         ("SH degree", info["sh_degree"]), ("axes", info["axes"]),
+        ("anti-aliased", "yes (trained so: rendered with the compensation)" if info["antialiased"] else "no"),
         ("bbox min", _fmt_vec(info["bbox_min"])), ("bbox max", _fmt_vec(info["bbox_max"])),
         ("NaN/Inf splats", bad["nonfinite"]), ("zero quaternions", bad["zero_quaternions"]),
         ("non-positive scales", bad["nonpositive_scales"]),

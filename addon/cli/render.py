@@ -32,6 +32,7 @@ from . import UsageError, UserError
 from . import framing_options
 from .capture_scene import is_blend
 from .framing_options import parse_frames
+from .options import add_axes, preset_names
 from .render_job import render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
@@ -39,6 +40,7 @@ from ..core import budget
 from ..core.formats import table
 
 FORMATS = ("EXR", "PNG", "MP4")
+STILL_VIEWS = ("front", "side", "capture")  # framing_options.VIEWS but the orbit
 EXR_FORMATS = ("OPEN_EXR", "OPEN_EXR_MULTILAYER")  # Blender's file formats that --half applies to
 _BOOL = {"1": True, "true": True, "on": True, "yes": True,
          "0": False, "false": False, "off": False, "no": False}
@@ -67,25 +69,28 @@ def configure(parser):
     parser.add_argument("--frames", metavar="A-B", help="frame range (or one frame); default: the scene's "
                                                         "(a capture: see --camera and --seconds)")
     framing_options.add_arguments(parser)
+    add_axes(parser)
     parser.add_argument("--step", type=int, metavar="N", help="render every Nth frame; default: the scene's")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--format", type=str.upper, choices=FORMATS,
                         help="EXR (multilayer, Combined + Depth), PNG (8-bit) or MP4 (H.264); "
                              "default: the .blend's own output settings")
     output.add_argument("--preset", metavar="NAME",
-                        help="a render-output preset (presets/render/, or one saved in Blender), "
-                             "e.g. exr_half_multilayer, exr_float, png_16bit, h264_mp4, prores_422, "
-                             "preview; other flags given override it")
-    parser.add_argument("--half", action="store_true", help="EXR: half floats instead of full floats")
-    parser.add_argument("--resolution", metavar="WxH", help="output size in pixels (percentage set to 100)")
+                        help=f"a render-output preset: {preset_names('render', '.py')} "
+                             "(presets/render/), or one saved in Blender; other flags given "
+                             "override it (default: none)")
+    parser.add_argument("--half", action="store_true", help="EXR: half floats instead of full floats (default: full)")
+    parser.add_argument("--resolution", metavar="WxH", help="output size in pixels, percentage set to 100 (default: the .blend's; "
+                             "1920x1080 for a capture)")
     parser.add_argument("--engine-option", action="append", default=[], metavar="NAME=VALUE",
                         help="a Splatline render setting, e.g. key_bits=16, gpu_sort=off, "
                              "antialiased=on, renderer=REFERENCE|GPU_MODULE|OFFSCREEN|AUTO, "
                              "motion_blur_samples=8 (with the .blend's motion blur on), "
                              "meshes=DRAW|HOLDOUT|IGNORE, mesh_engine=WORKBENCH|EEVEE|CYCLES "
-                             "(repeatable)")
+                             "(repeatable; default: the .blend's settings)")
     parser.add_argument("--keep-stamp", action="store_true",
-                        help="keep the render date, time, frame and host in the files' metadata (not reproducible)")
+                        help="keep the render date, time, frame and host in the files' metadata (not "
+                             "reproducible; default: off)")
 
 
 def parse_resolution(text: str) -> tuple[int, int]:
@@ -158,11 +163,20 @@ def configure_output(scene, fmt: str, out_dir: str, half: bool = False) -> None:
         render.ffmpeg.codec = "H264"
 
 
-def _check_video_size(scene) -> None:
+def _check_video_size(scene, args) -> None:
+    """An option error (exit 2) naming the option that chose the size or the movie; the
+    .blend's own movie output at its own odd size is the .blend's (exit 1)."""
     r = scene.render
     w, h = r.resolution_x * r.resolution_percentage // 100, r.resolution_y * r.resolution_percentage // 100
-    if w % 2 or h % 2:
-        raise UserError(f"MP4 (H.264) needs an even frame size, this one is {w}x{h}")
+    if not (w % 2 or h % 2):
+        return
+    why = f"MP4 (H.264) needs an even width and height, not {w}x{h}"
+    if args.resolution:
+        raise UsageError(f"--resolution {args.resolution.strip()}: {why}")
+    if args.format or args.preset:
+        flag = f"--format {args.format}" if args.format else f"--preset {args.preset}"
+        raise UsageError(f"{flag}: {why} (the frame size of {args.blend}); give an even --resolution")
+    raise UserError(f"{args.blend}: its MP4 output: {why}; give an even --resolution")
 
 
 def _prepare(bpy, args):
@@ -188,7 +202,7 @@ def _prepare(bpy, args):
     if args.half:
         _use_half(scene, args)
     if media_type(scene.render.image_settings) == "VIDEO":
-        _check_video_size(scene)
+        _check_video_size(scene, args)
     r = scene.render
     check_frame_memory(f"--resolution {args.resolution.strip()}" if args.resolution else
                        f"{args.blend}: its resolution", r.resolution_x * r.resolution_percentage // 100,
@@ -250,11 +264,15 @@ def _check_args(args) -> None:
         raise UserError(f"{args.blend}: no such {kind}")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise UserError(f"--out {args.out}: exists and is not a folder")
-    _check_out_creatable(args.out)
+    check_out_creatable(args.out)
     if args.frames:
         parse_frames(args.frames)
     if args.resolution:
-        check_frame_memory(f"--resolution {args.resolution.strip()}", *parse_resolution(args.resolution))
+        width, height = parse_resolution(args.resolution)
+        check_frame_memory(f"--resolution {args.resolution.strip()}", width, height)
+        if args.format == "MP4" and (width % 2 or height % 2):  # known before Blender starts
+            raise UsageError(f"--resolution {args.resolution.strip()}: MP4 (H.264) needs an even "
+                             f"width and height")
     if args.step is not None and not 1 <= args.step <= MAX_FRAME:
         raise UsageError(f"--step {args.step}: must lie in 1-{MAX_FRAME}")
     if args.half:  # the format known before Blender starts (a preset's or a .blend's: _use_half)
@@ -265,10 +283,13 @@ def _check_args(args) -> None:
                              "use --format EXR, or drop --half")
     if args.camera is not None and is_blend(args.blend):
         raise UsageError(f"--camera {args.camera}: applies to a capture, not to a .blend (it has its cameras)")
+    if args.axes != "AUTO" and is_blend(args.blend):
+        raise UsageError(f"--axes {args.axes}: applies to a capture, not to a .blend (its objects "
+                         "carry their own rotation)")
     args.framing = framing_options.read(args, for_blend=is_blend(args.blend))
 
 
-def _check_out_creatable(out) -> None:
+def check_out_creatable(out, what: str = "frames") -> None:
     """The folder is made only once the input is known good (nothing half-made on bad input),
     so a path under a file is refused here, as os.makedirs would refuse it."""
     parent = os.path.abspath(out)
@@ -276,7 +297,7 @@ def _check_out_creatable(out) -> None:
         parent = os.path.dirname(parent)
     if not os.path.isdir(parent):
         raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), out)
-    check_folder(parent, "frames")
+    check_folder(parent, what)
 
 
 def _open_scene(args):
@@ -289,13 +310,21 @@ def _open_scene(args):
         capture_scene.check_camera_options(camera, args.framing)
         frames = parse_frames(args.frames) if args.frames else None
         frames = capture_scene.seconds_range(camera, args.framing, frames)
+        _say_still(camera, frames)
         bpy = blender_session.start()
         _set_frame_size(bpy.context.scene, args)  # the framing fits the frame's aspect
-        capture_scene.build(bpy, args.blend, camera, frames, args.framing)
+        capture_scene.build(bpy, args.blend, camera, frames, args.framing, args.axes)
         if not args.format and not args.preset:
             args.format = "PNG"  # the factory scene's output would be an opaque 8-bit RGB
         return bpy
     return blender_session.start(os.path.abspath(args.blend))  # SplatFormatError if unreadable
+
+
+def _say_still(camera, frames) -> None:
+    """A still view over several frames renders the same picture each time: said once."""
+    if camera in STILL_VIEWS and frames is not None and frames[1] > frames[0]:
+        print(f"note: --camera {camera} is a still view: its {frames[1] - frames[0] + 1} frames "
+              f"({frames[0]}-{frames[1]}) are identical (--camera orbit moves)", flush=True)
 
 
 def run(args) -> int:

@@ -18,10 +18,10 @@ written and closed, fsyncs it and renames it to the name the user's pattern give
 killed or failed render never leaves a cut file under a final name, and never touches an
 older frame of that name before the new one is whole. What remains: a kill -9 during
 Blender's write leaves that hidden `.NAME.PID.frametmp.EXT` (a catchable signal removes it,
-and the next render into the folder removes those of dead processes); Blender's own
-"Saved:" line names the temporary; movies (FFmpeg) are one growing file Blender writes itself, and stereo views (multiview)
+and the next render into the folder removes those of dead processes); movies (FFmpeg) are one growing file Blender writes itself, and stereo views (multiview)
 and the no-overwrite / placeholder options, whose checks Blender makes on the final name,
-keep Blender's own direct write.
+keep Blender's own direct write. Blender's own "Saved:" line would name the temporary: the
+job's stdout passes through stderr_filter.final_frame_names, which prints the final name.
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ import time
 
 from . import UserError
 from ..core import atomic, stop
-from .stderr_filter import without_egl_probe_lines
+from .stderr_filter import final_frame_names, without_egl_probe_lines
 
 
 class Progress:
@@ -172,7 +172,8 @@ def render_animation(bpy, scene, total: int, label: str) -> tuple[list[float], b
     """Render the scene's frame range: (seconds per finished frame, whether Ctrl+C stopped
     it). A render error other than the stop is a UserError starting with `label`."""
     with _claimed(scene), TemporaryFrames(bpy, scene) as frames, \
-            Progress(bpy, total, frames) as progress, _StopOnSigint(), without_egl_probe_lines():
+            Progress(bpy, total, frames) as progress, _StopOnSigint(), without_egl_probe_lines(), \
+            final_frame_names():
         try:
             bpy.ops.render.render(animation=True, scene=scene.name)
         except RuntimeError as exc:

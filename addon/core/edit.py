@@ -108,14 +108,17 @@ def decimate(splats: SplatSet, count: int) -> SplatSet:
 
 def merge(sets: list) -> SplatSet:
     """One set of all splats, in the first set's axis convention and the highest SH degree
-    among them (missing bands are zero: no view-dependent colour, as the source had)."""
+    among them (missing bands are zero: no view-dependent colour, as the source had);
+    anti-aliased where every set is."""
     axes = sets[0].axes
     sets = [reframe(s, axes) for s in sets]
     k = max(sh_coeff_count(s.sh_degree) for s in sets)
     rest = [np.pad(s.sh_rest, ((0, 0), (0, k - s.sh_rest.shape[1]), (0, 0))) for s in sets]
     cat = {f: np.concatenate([getattr(s, f) for s in sets]) for f in
            ("positions", "scales", "rotations", "opacities", "sh_dc")}
-    return SplatSet(**cat, sh_rest=np.concatenate(rest).astype(np.float32), axes=axes).check()
+    # anti-aliased only where every input was (splat-transform also drops a disagreeing tag)
+    return SplatSet(**cat, sh_rest=np.concatenate(rest).astype(np.float32), axes=axes,
+                    antialiased=all(s.antialiased for s in sets)).check()
 
 
 def statistics(splats: SplatSet) -> dict:

@@ -57,6 +57,10 @@ class SplatSet:
     sh_rest    (N, K, 3) float32 higher SH coefficients, K = (deg+1)^2 - 1, coefficient-major
     axes       source axis convention, one of AXES
     sh_degree_in_file  see below
+    antialiased  the capture was trained with anti-aliasing (gsplat's antialiased mode,
+               Mip-Splatting): SPZ's header flag 0x1, a PLY's `SplatRenderMode: mip` or
+               `antialiased 1` comment; renderers then apply the opacity compensation
+               (RenderOptions.antialiased), and writers write the flag back
     """
 
     positions: np.ndarray
@@ -70,6 +74,7 @@ class SplatSet:
     # as degree 3, or any file read under a max_degree); None when it kept them all, or the
     # reader does not say. Only read_with_report reads it.
     sh_degree_in_file: int | None = None
+    antialiased: bool = False
 
     @property
     def count(self) -> int:

@@ -23,10 +23,20 @@ def test_info_json(testdata, name):
     s = read(testdata / name)
     assert info["count"] == s.count and info["sh_degree"] == s.sh_degree
     assert info["format"] == ("compressed_ply" if "compressed" in name else name.split(".")[-1])
-    assert info["axes"] == "RDF"
+    assert info["axes"] == s.axes == ("RUB" if name.endswith(".spz") else "RDF")  # SPZ's own frame
     np.testing.assert_array_equal(info["bbox_min"], s.positions.min(axis=0))
     np.testing.assert_array_equal(info["bbox_max"], s.positions.max(axis=0))
     assert info["bad_values"]["nonfinite"] == 0
+
+
+def test_info_takes_the_axes_override(testdata):
+    """--axes as import, convert and render take it: splat-transform 3.7's .spz holds the
+    PLY's frame; the bounds are the file's values either way."""
+    plain = json.loads(cli("info", testdata / "test64.spz", "--json").stdout)
+    r = cli("info", testdata / "test64.spz", "--json", "--axes", "RDF")
+    assert r.returncode == 0, r.stderr
+    said = json.loads(r.stdout)
+    assert (plain["axes"], said["axes"]) == ("RUB", "RDF") and said["bbox_min"] == plain["bbox_min"]
 
 
 def test_info_table(testdata):
@@ -49,9 +59,12 @@ def test_info_reports_bad_values(tmp_path):
 @pytest.mark.parametrize("out_ext", [".ply", ".splat"])
 def test_convert_every_pair(testdata, tmp_path, name, out_ext):
     out = tmp_path / f"out{out_ext}"
-    r = cli("convert", testdata / name, out)
+    # splat-transform 3.7 wrote these .spz in the PLY's frame: said with --axes RDF, the
+    # values go through unturned (without it they are turned from SPZ's RUB)
+    axes = ("--axes", "RDF") if name.endswith(".spz") else ()
+    r = cli("convert", testdata / name, out, *axes)
     assert r.returncode == 0, r.stderr
-    src, got = read(testdata / name), read(out)
+    src, got = read(testdata / name, axes=axes[-1] if axes else None), read(out)
     assert got.count == src.count == 90854
     if out_ext == ".ply":  # float PLY holds what was read: opacity within 1 ulp of 1.0
         np.testing.assert_array_equal(got.positions, src.positions)
@@ -62,7 +75,7 @@ def test_convert_every_pair(testdata, tmp_path, name, out_ext):
 
 def test_convert_options(testdata, tmp_path):
     out = tmp_path / "small.ply"
-    r = cli("convert", testdata / "test64.ply", out, "--sh-degree", "1", "--min-opacity", "0.2",
+    r = cli("convert", testdata / "test64.ply", out, "--max-sh-degree", "1", "--min-opacity", "0.2",
             "--max-count", "10")
     assert r.returncode == 0, r.stderr
     s, src = read(out), read(testdata / "test64.ply")
@@ -114,7 +127,7 @@ def test_convert_refuses_zero_splats(tmp_path, out_ext):
 
 def test_convert_refuses_when_the_options_leave_no_splats(testdata, tmp_path):
     out = tmp_path / "out.splat"  # a 0-splat .splat is a 0-byte file the reader rejects
-    line = one_error_line(cli("convert", testdata / "test64.ply", out, "--max-count", "0"))
+    line = one_error_line(cli("convert", testdata / "test64.ply", out, "--keep-where", "opacity>2"))
     assert str(testdata / "test64.ply") in line and "no splats left" in line
     assert not out.exists()
 
@@ -177,3 +190,14 @@ def test_memory_error_is_one_line(monkeypatch, capsys):
     assert main(["info", "whatever.ply"]) == 1
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "out of memory" in lines[0], lines
+
+
+def test_info_shows_the_antialiased_mark(testdata, tmp_path):
+    from dataclasses import replace
+
+    from addon.core.formats import write
+
+    write(tmp_path / "aa.spz", replace(read(testdata / "test64.ply"), antialiased=True))
+    assert json.loads(cli("info", tmp_path / "aa.spz", "--json").stdout)["antialiased"] is True
+    assert json.loads(cli("info", testdata / "test64.ply", "--json").stdout)["antialiased"] is False
+    assert "anti-aliased         yes" in cli("info", tmp_path / "aa.spz").stdout

@@ -301,3 +301,18 @@ def test_front_direction_is_the_thin_level_axis_or_the_captures_own():
     front = framing.front_direction(ball, framing.robust_bounds(ball), up, forward)
     level = np.array([0.3, 1.0, 0.0]) / np.linalg.norm([0.3, 1.0, 0.0])
     np.testing.assert_allclose(front, level, atol=1e-12)  # no broad face: the capture's own
+
+
+def test_a_still_view_over_several_frames_says_so_once(testdata, tmp_path):
+    """Issue 42: `--camera front --frames 1-3` rendered three identical stills without a word."""
+    out = tmp_path / "still"
+    run = _cli("render", testdata / "test64.ply", "--out", out, "--camera", "front", "--frames", "1-3",
+               "--resolution", "32x18")
+    assert run.returncode == 0, run.stdout + run.stderr
+    notes = [line for line in run.stdout.splitlines() if line.startswith("note:")]
+    assert notes == ["note: --camera front is a still view: its 3 frames (1-3) are identical "
+                     "(--camera orbit moves)"], run.stdout
+    assert len(list(out.glob("frame_*.png"))) == 3
+    run = _cli("render", testdata / "test64.ply", "--out", tmp_path / "one", "--camera", "front",
+               "--resolution", "32x18")
+    assert run.returncode == 0 and "note:" not in run.stdout, run.stdout + run.stderr

@@ -98,15 +98,19 @@ def test_mp4_and_options(guitar_blend, tmp_path, bpy_empty):
     assert movie.frame_duration == 3 and tuple(movie.size) == (80, 60)
 
 
-# A bad option is a usage error (exit 2); a file that cannot serve is a data error (exit 1):
-# the .blend missing, or its frame size (here set by the flag) odd for H.264.
+# A bad option is a usage error (exit 2) naming the option; a file that cannot serve is a
+# data error (exit 1): the .blend missing. An odd frame size for H.264 is the option's that
+# set it (issue 42: it was exit 1 without naming --resolution).
 @pytest.mark.parametrize("args, message, code", [
     (("missing.blend", "--out", "o"), "missing.blend: no such .blend file", 1),
     (("{blend}", "--out", "o", "--frames", "5-2"), "--frames '5-2': the range ends before it starts", 2),
     (("{blend}", "--out", "o", "--resolution", "12"), "--resolution '12': expected WxH", 2),
     (("{blend}", "--out", "o", "--engine-option", "warp=9"), "--engine-option 'warp=9'", 2),
     (("{blend}", "--out", "o", "--engine-option", "key_bits=8"), "key_bits: '8' is not one of 16, 32", 2),
-    (("{blend}", "--out", "o", "--format", "MP4", "--resolution", "81x60"), "needs an even frame size", 1),
+    (("{blend}", "--out", "o", "--format", "MP4", "--resolution", "81x60"),
+     "--resolution 81x60: MP4 (H.264) needs an even width and height", 2),
+    (("{blend}", "--out", "o", "--preset", "h264_mp4", "--resolution", "81x60"),
+     "--resolution 81x60: MP4 (H.264) needs an even width and height, not 81x60", 2),
 ])
 def test_errors_are_one_line(guitar_blend, tmp_path, args, message, code):
     args = [str(a).format(blend=guitar_blend) for a in args]

@@ -346,3 +346,21 @@ def test_demo_options_are_one_line_within_the_budget(tmp_path, args, rc_want, wo
     one_line(err, *words)
     assert not out.exists()
     assert peak < PEAK_LIMIT, peak
+
+
+@pytest.mark.parametrize("command", ["convert", "import", "render", "demo"])
+def test_every_command_checks_its_output_folder_before_its_input(testdata, tmp_path, command):
+    """Issue 42: `import` into a read-only folder read the whole file first, then failed in
+    two lines showing Blender's `x.blend@`. The input here is broken too: the folder is what
+    each command must name, so it was checked first (one line, exit 1)."""
+    folder = _unwritable(tmp_path)
+    broken = tmp_path / "broken.ply"
+    broken.write_bytes((testdata / "test64.ply").read_bytes()[:-50])
+    args = {"convert": ("convert", broken, os.path.join(folder, "o.ply")),
+            "import": ("import", broken, "--blend", os.path.join(folder, "x.blend")),
+            "render": ("render", broken, "--out", os.path.join(folder, "frames")),
+            "demo": ("demo", "--file", broken, "--out", os.path.join(folder, "demo"))}[command]
+    rc, _, err, _ = cli(*args, timeout=60)
+    assert rc == 1
+    one_line(err, folder, "cannot write")
+    assert "truncated" not in err and "@" not in err

@@ -17,6 +17,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import tomllib
 
 import pytest
 
@@ -119,6 +120,9 @@ def test_help_names_the_command(installed):
     assert run.stdout.startswith("usage: splatline ")
     for command in ("info", "convert", "import", "render", "demo"):
         assert command in run.stdout
+    version = _splatline(installed, "--version")  # the manifest's, or the distribution's
+    want = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    assert version.returncode == 0 and version.stdout.strip() == f"splatline {want}", version
     # The checkout's own entry point keeps its name.
     here = subprocess.run([sys.executable, "-m", "addon", "--help"], cwd=ROOT,
                           capture_output=True, text=True, timeout=60)
@@ -161,3 +165,28 @@ def test_import_and_render_with_bpy(installed, testdata):
 
     pixels = read_image(cwd / "frames" / "frame_0001.png")
     assert pixels.shape == (48, 64, 4) and pixels.dtype.itemsize == 2  # png_16bit: RGBA, 16-bit
+
+
+def test_readme_bpy_snippet_after_pip_install(installed, testdata):
+    """The README's bpy snippet (`import addon`, else `from splatline import addon`) run from
+    a folder outside the checkout with the installed package: `import addon` is not there
+    (issue 42: the snippet failed after pip install with "No module named 'addon'")."""
+    from testing import readme_snippet
+
+    venv, bpy_links, cwd = installed
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    env["PYTHONPATH"] = str(bpy_links)
+    python = venv / "bin" / "python"
+    blend, out = cwd / "snippet.blend", cwd / "snippet_out"
+    run = _splatline(installed, "import", testdata / "guitar.ply", "--blend", blend, "--max-count", "3000",
+                     timeout=300, with_bpy=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    readme_snippet.shrink(python, blend, env)
+    bare = subprocess.run([str(python), "-c", "import addon"], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=60)
+    assert bare.returncode != 0 and "No module named 'addon'" in bare.stderr  # the installed name differs
+    code = readme_snippet.runnable(blend, out, readme_snippet.bpy_major())
+    run = subprocess.run([str(python), "-c", code], cwd=cwd, env=env, capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    readme_snippet.check_frames(out)

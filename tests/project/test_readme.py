@@ -15,7 +15,6 @@ is renamed or removed fails here too. The README stays under 300 lines.
 from __future__ import annotations
 
 import ast
-import importlib.metadata
 import importlib.util
 import json
 import os
@@ -27,6 +26,7 @@ import sys
 
 import pytest
 
+from testing import readme_snippet
 from testing.paths import REPO as ROOT
 
 README = ROOT / "README.md"
@@ -239,38 +239,19 @@ def test_readme_cli_commands_with_bpy(workdir):
         _check(args, _run(args, workdir), workdir)
 
 
-SHRINK = """
-import bpy
-bpy.ops.wm.open_mainfile(filepath={blend!r})
-scene = bpy.context.scene
-scene.frame_start, scene.frame_end = 1, 2
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 36, 100
-bpy.ops.wm.save_mainfile()
-"""
-
-
 @pytest.mark.skipif(not HAS_BPY, reason="needs bpy")
 def test_readme_bpy_snippet(testdata, tmp_path):
-    """The `python` block, from the repo root, on a .blend of guitar.ply (two frames, 64x36)."""
-    (snippet,) = [body for lang, body in _blocks(README.read_text()) if lang == "python"]
+    """The `python` block, from the repo root, on a .blend of guitar.ply (two frames, 64x36);
+    tests/project/test_install.py runs it after `pip install`."""
     blend, out = tmp_path / "scene.blend", tmp_path / "out"
     run = _run(["import", str(testdata / "guitar.ply"), "--blend", str(blend)], ROOT)
     assert run.returncode == 0, run.stderr
-    shrink = subprocess.run([sys.executable, "-c", SHRINK.format(blend=str(blend))],
-                            capture_output=True, text=True, timeout=300)
-    assert shrink.returncode == 0, shrink.stderr
-    assert '"scene.blend"' in snippet and '"/tmp/out/frame_"' in snippet
-    code = snippet.replace('"scene.blend"', repr(str(blend))).replace('"/tmp/out/frame_"',
-                                                                       repr(f"{out}/frame_"))
-    if int(importlib.metadata.version("bpy").split(".")[0]) < 5:  # as its comment says
-        code = "\n".join(line for line in code.splitlines() if "(Blender 5.0+)" not in line)
+    readme_snippet.shrink(sys.executable, blend)
+    code = readme_snippet.runnable(blend, out, readme_snippet.bpy_major())
     run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                          timeout=300)
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
-    frames = sorted(p.name for p in out.iterdir())
-    assert frames == ["frame_0001.exr", "frame_0002.exr"], frames
-    for name in frames:
-        assert (out / name).read_bytes()[:4] == b"\x76\x2f\x31\x01"  # OpenEXR's magic number
+    readme_snippet.check_frames(out)
 
 
 def _anchors(path) -> set[str]:

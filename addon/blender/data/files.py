@@ -16,6 +16,7 @@ from ...core.axes import euler_for
 from ...core.errors import SplatFormatError
 from ...core.reframe import reframe
 from ...core.splats import AXES, AXES_RDF
+from .native import drawn_natively
 from .pointcloud import blender_bytes, new_pointcloud_object, splats_from_pointcloud
 
 SOURCE_PROP = "splatline_source"
@@ -72,6 +73,10 @@ def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, 
         obj.rotation_euler = euler_for(splats.axes)
         obj[SOURCE_PROP] = os.path.abspath(os.fspath(path))
         obj[AXES_PROP] = splats.axes
+        obj.splatline.antialiased = splats.antialiased
+        if splats.antialiased and drawn_natively(obj.data):  # 5.3: handed to Blender's engines
+            print(f"{obj.name}: trained with anti-aliasing; Blender's own engines have no "
+                  "anti-aliased splat mode (the Splatline engine renders it with the compensation)")
         _make_active(context, obj)
     except BaseException:
         pointcloud = obj.data
@@ -143,7 +148,9 @@ def object_splats(obj, evaluated=False, depsgraph=None, axes=None):
     if evaluated:
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
         data = obj.evaluated_get(depsgraph).data
-    return splats_from_pointcloud(data, object_axes(obj, axes))
+    splats = splats_from_pointcloud(data, object_axes(obj, axes))
+    splats.antialiased = bool(getattr(getattr(obj, "splatline", None), "antialiased", False))
+    return splats
 
 
 def export_object(obj, path, evaluated=False, depsgraph=None, axes=None) -> None:

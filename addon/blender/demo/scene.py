@@ -36,11 +36,12 @@ def world_bounds(obj) -> Bounds:
 
 
 def build(context, *, splats: int = 300_000, target_splats: int | None = None,
-          frames: int = 120, fps: int = 24, file=None, degree: int = 3, aspect: float = 16 / 9):
+          frames: int = 120, fps: int = 24, file=None, degree: int = 3, aspect: float = 16 / 9,
+          axes: str = "AUTO"):
     """Fill context.scene with the animated demo; returns (source, target, camera).
 
     `file`: a splat file to use instead of the procedural torus knot (its SH degree is
-    kept up to `degree`). The morph target is a procedural planet sized to the source.
+    kept up to `degree`; `axes` its axis convention, AUTO: the file's). The morph target is a procedural planet sized to the source.
     `aspect`: the frame's width over height, which the camera distance is fitted to.
     """
     scene = context.scene
@@ -51,7 +52,7 @@ def build(context, *, splats: int = 300_000, target_splats: int | None = None,
         source = new_pointcloud_object(SOURCE_NAME, knot.subset(coherent_order(knot.positions)))
         target_count = splats  # equal counts: the morph pairs by index, in coherent order
     else:
-        source = import_file(context, file, max_sh_degree=degree, max_count=splats)
+        source = import_file(context, file, max_sh_degree=degree, max_count=splats, axes=axes)
         target_count = max(1, len(source.data.points) * 3 // 4)  # paired by spatial sort
     context.view_layer.update()  # matrix_world of the imported object's axis rotation
     bounds = world_bounds(source)

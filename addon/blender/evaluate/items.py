@@ -163,6 +163,12 @@ def collect_items(depsgraph, defer=None) -> list[RenderItem]:
     return [item_for(obj, depsgraph, defer) for obj in splat_objects(depsgraph) if shown(obj)]
 
 
+def any_antialiased(depsgraph) -> bool:
+    """Whether a splat object the frame draws is flagged as an anti-aliased capture
+    (Object.splatline.antialiased, set on import from the file)."""
+    return any(obj.splatline.antialiased for obj in splat_objects(depsgraph) if shown(obj))
+
+
 @bpy.app.handlers.persistent
 def _on_depsgraph_update(_scene, depsgraph):
     CACHE.on_update(depsgraph)

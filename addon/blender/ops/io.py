@@ -16,10 +16,12 @@ from ..data.sources import is_splat_object
 from ..registration import classes_and_menus
 
 _AXES_ENUM = [
-    ("AUTO", "From File", "Y down, z forward for .ply, .splat, .spz and .sog (the .spz frame splat-transform "
-                          "writes); glTF is read into the same frame"),
-    ("RDF", "Y Down, Z Forward", "3DGS / COLMAP camera frame"),
-    ("RUB", "Y Up, Z Back", "OpenGL-like frame: pick this for a .spz from Niantic's own tools"),
+    ("AUTO", "From File", "Y down, z forward for .ply, .splat and .sog; y up, z back for .spz (SPZ's "
+                          "documented frame, or the one its coordinate-system extension names); glTF "
+                          "is read into the Y-down frame"),
+    ("RDF", "Y Down, Z Forward", "3DGS / COLMAP camera frame: pick this for a .spz that holds the PLY's "
+                                 "values (splat-transform 3.7 writes them so)"),
+    ("RUB", "Y Up, Z Back", "OpenGL-like frame, SPZ's own"),
     ("RFU", "Z Up (Blender)", "No rotation"),
 ]
 # Export: the frame the selected objects' data is in (data/files.object_axes); the file is

@@ -18,6 +18,15 @@ class SplatlineObjectSettings(bpy.types.PropertyGroup):
     active_effect: bpy.props.IntProperty(default=0, min=0)
     sequence: bpy.props.PointerProperty(type=sequence_props.SequenceSettings)
     dynamic: bpy.props.PointerProperty(type=dynamic_props.DynamicSettings)
+    # Set on import from the file's own mark (SplatSet.antialiased), overridable; the render
+    # engine turns gsplat's opacity compensation on where a flagged object is drawn
+    # (RenderOptions.antialiased is one mode per render), and export writes it back.
+    antialiased: bpy.props.BoolProperty(
+        name="Anti-Aliased Capture", default=False,
+        description="The capture was trained with anti-aliasing (gsplat's antialiased mode, "
+                    "Mip-Splatting), as its file said: render it with the opacity compensation. "
+                    "The compensation is one mode per render, so a frame that draws any flagged "
+                    "object applies it to every splat object in it")
 
 
 class SplatlineSceneSettings(bpy.types.PropertyGroup):

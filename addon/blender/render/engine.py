@@ -32,7 +32,7 @@ from . import backend as render_backend
 from .camera import camera_from_blender
 from ..registration import app_handlers
 from ..evaluate.holdout_geometry import clear_cache as clear_holdout_cache, holdout_for
-from ..evaluate.items import collect_items
+from ..evaluate.items import any_antialiased, collect_items
 from .film import blender_depth, region_camera, render_region, result_rect
 from .world import world_background
 
@@ -158,6 +158,8 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             world = None if r.film_transparent or drawn else \
                 world_background(depsgraph.scene_eval.world)
             options = settings.options()
+            if not options.antialiased and any_antialiased(depsgraph):  # a flagged capture
+                options = dataclasses.replace(options, antialiased=True)
             if renderer.has_film and not times:  # the renderer converts its frame itself
                 options = dataclasses.replace(
                     options, film=Film(None if world is None else tuple(world)))

@@ -104,6 +104,7 @@ class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
         look = context.object.splatline.look
         for name in ("visible", "opacity", "size", "tint", "exposure", "saturation", "hue", "max_sh_degree"):
             layout.prop(look, name)
+        layout.prop(context.object.splatline, "antialiased")
 
 
 class SPLATLINE_PT_look_crop(_ObjectPanel, bpy.types.Panel):

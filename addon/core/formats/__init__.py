@@ -82,9 +82,9 @@ def _reader(fmt: str):
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
                      format=None, axes=None, max_splats=None) -> tuple[SplatSet, ReadReport]:
     """Decode a file, handle bad values by policy `bad` ("fix", "drop", "error"), then apply
-    the import options. `axes` overrides the file's axis convention (e.g. "RUB" for an spz
-    written by Niantic's own tools); `format` skips detection. `max_splats` is the splat
-    budget: a file claiming more is refused before anything is decompressed or allocated
+    the import options. `axes` overrides the file's axis convention (e.g. "RDF" for an spz
+    holding the PLY's values, as splat-transform 3.7 writes them); `format` skips detection.
+    `max_splats` is the splat budget: a file claiming more is refused before anything is decompressed or allocated
     (None: what fits in available memory; unlike max_count, it never subsamples)."""
     if axes is not None and axes not in AXES:
         raise ValueError(f"axes {axes!r} is not one of {AXES}")

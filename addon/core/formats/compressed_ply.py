@@ -24,7 +24,7 @@ from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 from ._common import check_budget, normalize_quats_
-from .ply import columns, sh_rest_from
+from .ply import antialiased_by_comments, columns, sh_rest_from
 from .plyheader import parse_header, read_body
 
 CHUNK = 256
@@ -97,6 +97,7 @@ def read_compressed_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     s.sh_dc = ((color - np.float32(0.5)) / np.float32(C0)).astype(np.float32)
     s.opacities = _unorm(packed["packed_color"], 0, 8)
     s.sh_rest, s.sh_degree_in_file = _read_sh(path, body.get("sh"), n, max_degree)
+    s.antialiased = antialiased_by_comments(header.comments)
     return s
 
 

@@ -11,7 +11,7 @@ from ..sh import C0
 from ..splats import SplatSet
 from ._common import write_file
 from .compressed_ply import BOUNDS, CHUNK, COLOR_BOUNDS
-from .ply import rest_names
+from .ply import ANTIALIASED_COMMENT, rest_names
 
 
 def _morton_order(p: np.ndarray) -> np.ndarray:
@@ -73,8 +73,9 @@ def write_compressed_ply(path, splats: SplatSet) -> None:
     k = s.sh_rest.shape[1]
     # reader: v -> (v + 0.5) / 256 * 8 - 4, so the nearest v is floor((x + 4) * 32)
     sh = np.clip(np.floor((s.sh_rest.transpose(0, 2, 1).reshape(n, 3 * k) + 4.0) * 32), 0, 255).astype(np.uint8)
-    lines = ["ply", "format binary_little_endian 1.0", "comment written by Splatline",
-             f"element chunk {n_chunks}"]
+    lines = ["ply", "format binary_little_endian 1.0", "comment written by Splatline"]
+    lines += [f"comment {ANTIALIASED_COMMENT}"] if s.antialiased else []
+    lines += [f"element chunk {n_chunks}"]
     lines += [f"property float {name}" for name in BOUNDS + COLOR_BOUNDS]
     lines += [f"element vertex {n}"] + [f"property uint {name}" for name in
                                          ("packed_position", "packed_rotation", "packed_scale", "packed_color")]

@@ -154,7 +154,29 @@ def read_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
     rest = sum(1 for name in vertex.names() if name.startswith("f_rest_"))
     check_budget(path, vertex.count, rest, max_splats)
     body = read_body(path, header)
-    return decode_vertices(path, body["vertex"], max_degree)
+    splats = decode_vertices(path, body["vertex"], max_degree)
+    splats.antialiased = antialiased_by_comments(header.comments)
+    return splats
+
+
+# The PLY header comments that mark a capture trained with anti-aliasing, as splat-transform
+# reads them: Brush's `SplatRenderMode: default | mip | 2dgs` and Postshot's `antialiased 0 | 1`,
+# case-insensitive, the last one that says something wins. Written back as Brush's form.
+MODE_KEY, POSTSHOT_KEY = "splatrendermode:", "antialiased "
+ANTIALIASED_COMMENT = "SplatRenderMode: mip"
+
+
+def antialiased_by_comments(comments) -> bool:
+    flag = False
+    for text in comments:
+        lower = text.strip().lower()
+        if lower.startswith(MODE_KEY):
+            mode = lower[len(MODE_KEY):].strip()
+            if mode in ("default", "mip"):  # 2dgs is another model, not an anti-aliased one
+                flag = mode == "mip"
+        elif lower.startswith(POSTSHOT_KEY) and lower[len(POSTSHOT_KEY):].strip() in ("0", "1"):
+            flag = lower[len(POSTSHOT_KEY):].strip() == "1"
+    return flag
 
 
 def ply_dtype(degree: int) -> np.dtype:
@@ -184,7 +206,8 @@ def encode_vertices(splats: SplatSet) -> np.ndarray:
 def write_ply(path, splats: SplatSet) -> None:
     splats.check()
     rec = encode_vertices(splats)
-    lines = ["ply", "format binary_little_endian 1.0", "comment written by Splatline",
-             f"element vertex {splats.count}"]
+    lines = ["ply", "format binary_little_endian 1.0", "comment written by Splatline"]
+    lines += [f"comment {ANTIALIASED_COMMENT}"] if splats.antialiased else []
+    lines += [f"element vertex {splats.count}"]
     lines += [f"property float {name}" for name in rec.dtype.names] + ["end_header", ""]
     write_file(path, "\n".join(lines).encode("ascii"), rec)

@@ -46,6 +46,7 @@ class Header:
     elements: list
     body_offset: int
     file_size: int
+    comments: list = field(default_factory=list)  # the text of each `comment` line, in order
 
     def element(self, name: str):
         return next((e for e in self.elements if e.name == name), None)
@@ -70,9 +71,11 @@ def _read_header_text(path, size: int) -> tuple[str, int]:
 def parse_header(path) -> Header:
     size = file_size(path)
     text, body_offset = _read_header_text(path, size)
-    encoding, elements = None, []
+    encoding, elements, comments = None, [], []
     for lineno, raw in enumerate(text.splitlines()[1:], start=2):
         words = raw.split()
+        if words and words[0] == "comment":
+            comments.append(raw.strip()[len("comment"):].strip())
         if not words or words[0] in ("comment", "obj_info"):
             continue
         key = words[0]
@@ -102,7 +105,7 @@ def parse_header(path) -> Header:
     if encoding is None:
         raise SplatFormatError(path, "PLY header has no format line")
     _check_names(path, elements)
-    header = Header(encoding, elements, body_offset, size)
+    header = Header(encoding, elements, body_offset, size, comments)
     _check_body_size(path, header)
     return header
 

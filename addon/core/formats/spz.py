@@ -15,15 +15,17 @@ smallest-three: 2-bit index of the largest component of x y z w, then for the ot
 (highest index in the lowest bits) 1 sign bit and 9 bits of |c| * sqrt(2) * 511 (v3+);
 sh: u8, (v - 128) / 128, coefficient-major with the colour channel fastest.
 
-Axis convention (measured, not assumed). Niantic's library documents RUB (right, up,
-back) as the frame inside the file and converts on load/save. But the testdata spz files,
-written by PlayCanvas splat-transform from the RDF guitar.ply / test64.ply, hold the PLY's
-values unconverted: positions agree to the 12-bit fixed-point step, quaternions agree up to
-sign, and the odd SH coefficients are not negated (a RDF->RUB turn would negate y, z and
-those). No header field tells the two writers apart, so this reader reports axes = "RDF",
-which makes every format of a capture land identically in Blender
-(tests/core/formats/test_formats_captures.py); a file from Niantic's own tools (true RUB) is read with
-read(path, axes="RUB"), the same axis override the importer offers.
+Axis convention: RUB (right, up, back), the frame SPZ documents for the data inside the
+file and the one Niantic's library and Blender 5.3's `wm.spz_import` read; a v4 file whose
+header flags hold 0x2 carries extension records ([u32 type][u32 length][payload], from byte
+32 to toc_offset), and Adobe's coordinate-system record (type 0xADBE0003, payload a u32 of
+Niantic's CoordinateSystem enum: RUB 4, RDF 6, RFU 12) names the stored frame instead.
+Until issue 42 this reader said RDF for every file, because splat-transform 3.7's own .spz
+files (the testdata guitar.spz and test64.spz) hold their PLY's values unconverted and no
+header field tells them apart; real files from Niantic's tools and others rendered upside
+down. Such PLY-frame files are now read with the axis override (read(path, axes="RDF"),
+`--axes RDF`). Header flag 0x1 marks a capture trained with anti-aliasing
+(SplatSet.antialiased).
 SH quantization seen in those files: band 1 in steps of 8/128, bands 2-3 in 16/128.
 
 Every size is bounded before it is allocated: the header's count fixes the exact
@@ -39,13 +41,19 @@ import zlib
 import numpy as np
 
 from ..errors import SplatFormatError
-from ..splats import AXES_RDF, FILE_MAX_DEGREE, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
+from ..splats import AXES_RDF, AXES_RFU, AXES_RUB, FILE_MAX_DEGREE, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
 from ._common import check_budget, normalize_quats_, read_bytes
 
 MAGIC = b"NGSP"
 MAX_FILE = 1 << 33
 GZIP_RATIO, ZSTD_RATIO = 1032, 32768
 COLOR_SCALE = 0.15
+FLAG_ANTIALIASED, FLAG_EXTENSIONS = 0x1, 0x2
+EXT_COORDINATE_SYSTEM = 0xADBE0003
+# Niantic's CoordinateSystem enum values of the frames Splatline has names for
+COORDINATE_SYSTEMS = {4: AXES_RUB, 6: AXES_RDF, 12: AXES_RFU}
+COORDINATE_NAMES = {1: "LDB", 2: "RDB", 3: "LUB", 5: "LDF", 7: "LUF", 8: "RUF", 9: "LFD", 10: "RFD",
+                    11: "LFU", 13: "LBD", 14: "RBD", 15: "LBU", 16: "RBU"}
 
 
 def _sizes(version: int, n: int, degree: int) -> list:
@@ -130,6 +138,25 @@ def _read_v4(path, data: bytes, max_splats=None) -> tuple:
     return (version, n, degree, frac, flags), blocks
 
 
+def _extension_axes(path, zone: bytes) -> str:
+    """The frame a coordinate-system record names (RUB without one); other records are
+    skipped by their length, as Niantic's reader skips types it does not know."""
+    axes, pos = AXES_RUB, 0
+    while pos + 8 <= len(zone):
+        kind, length = struct.unpack_from("<II", zone, pos)
+        pos += 8
+        if length > len(zone) - pos:
+            raise SplatFormatError(path, f"spz extension record 0x{kind:08x} runs past the header zone")
+        if kind == EXT_COORDINATE_SYSTEM and length >= 4:
+            value = struct.unpack_from("<I", zone, pos)[0]
+            if value in COORDINATE_NAMES:
+                raise SplatFormatError(path, f"spz coordinate-system extension says "
+                                             f"{COORDINATE_NAMES[value]}; Splatline reads RUB, RDF and RFU")
+            axes = COORDINATE_SYSTEMS.get(value, AXES_RUB)  # 0: unspecified, RUB as Niantic's
+        pos += length
+    return axes
+
+
 def _unzstd_bounded(path, chunk: bytes, expect: int) -> np.ndarray:
     import zstandard
 
@@ -152,17 +179,23 @@ def read_spz(path, max_degree: int = 3, max_splats=None) -> SplatSet:
         raw = _gunzip_bounded(path, data, max_splats)
         head = _parse_header(path, raw[:16], (1, 2, 3))
         blocks = _blocks(raw[16:], _sizes(head[0], head[1], head[2]))
+        axes = AXES_RUB
     elif data[:4] == MAGIC:
         head, blocks = _read_v4(path, data, max_splats)
+        toc_offset = struct.unpack_from("<I", data, 16)[0]
+        axes = _extension_axes(path, data[32:toc_offset]) if head[4] & FLAG_EXTENSIONS else AXES_RUB
     else:
         raise SplatFormatError(path, "not an spz file (neither gzip nor NGSP magic)")
-    return _decode(head, blocks, max_degree)
+    s = _decode(head, blocks, max_degree)
+    s.axes = axes
+    s.antialiased = bool(head[4] & FLAG_ANTIALIASED)
+    return s
 
 
 def _decode(head, blocks, max_degree: int) -> SplatSet:
     version, n, degree, frac, _ = head
     pos, alpha, color, scale, rot, sh = blocks
-    s = SplatSet.allocate(0, 0, AXES_RDF)
+    s = SplatSet.allocate(0, 0, AXES_RUB)
     if version == 1:
         s.positions = pos.view("<f2").reshape(n, 3).astype(np.float32)
     else:

@@ -10,7 +10,10 @@ splat-transform 3.7.0 runs through its wasm build:
   rotation   smallest-three, 9 bits a component, largest made positive
   sh         round(v * 128) + 128 snapped to buckets of 8 (band 1, "sh1Bits" 5) or 16 (bands
              2-3, "shRestBits" 4): fewer distinct bytes compress better, as Niantic does
-No axis conversion: the file holds the RDF values, as splat-transform's files do (spz.py).
+The file holds RUB, the frame SPZ documents (spz.py): a set in another frame is re-expressed
+first (positions, rotations and SH bands, core/reframe.py), so Blender 5.3's wm.spz_import and
+Splatline's import of the file agree. No coordinate-system extension is written (RUB is what
+its absence means).
 """
 from __future__ import annotations
 
@@ -20,9 +23,10 @@ import struct
 import numpy as np
 
 from ..errors import SplatFormatError
-from ..splats import SplatSet
+from ..reframe import reframe
+from ..splats import AXES_RUB, SplatSet
 from ._common import write_file
-from .spz import COLOR_SCALE, MAGIC
+from .spz import COLOR_SCALE, FLAG_ANTIALIASED, MAGIC
 
 VERSIONS = (3, 4)
 FRACTIONAL_BITS = 12
@@ -101,11 +105,12 @@ def encode_blocks(splats: SplatSet) -> tuple[int, list]:
 def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
     if version not in VERSIONS:
         raise SplatFormatError(None, f"cannot write spz version {version} (writable: 3, 4)")
-    splats.check()
+    splats = reframe(splats.check(), AXES_RUB)
     frac, blocks = encode_blocks(splats)
     n, degree = splats.count, splats.sh_degree
+    flags = FLAG_ANTIALIASED if splats.antialiased else 0
     if version == 3:
-        head = struct.pack("<4sIIBBBB", MAGIC, 3, n, degree, frac, 0, 0)
+        head = struct.pack("<4sIIBBBB", MAGIC, 3, n, degree, frac, flags, 0)
         return gzip.compress(head + b"".join(blocks), compresslevel=6, mtime=0)
     import zstandard
 
@@ -113,7 +118,7 @@ def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
         blocks = blocks[:5]
     cctx = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
     streams = [cctx.compress(b) for b in blocks]
-    head = struct.pack("<4sIIBBBBI", MAGIC, 4, n, degree, frac, 0, len(blocks), 32).ljust(32, b"\0")
+    head = struct.pack("<4sIIBBBBI", MAGIC, 4, n, degree, frac, flags, len(blocks), 32).ljust(32, b"\0")
     toc = b"".join(struct.pack("<QQ", len(c), len(b)) for c, b in zip(streams, blocks))
     return head + toc + b"".join(streams)
 

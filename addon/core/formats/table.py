@@ -14,7 +14,7 @@ import os
 from dataclasses import dataclass
 from typing import Callable
 
-from ..splats import AXES_RDF
+from ..splats import AXES_RDF, AXES_RUB
 
 
 def _ply_chunked(head: bytes) -> bool:
@@ -92,10 +92,11 @@ ROWS: list[Format] = [
            magic_required=True),
     Format("splat", "antimatter15", "Compact 32-byte splats, no higher SH", ".splat", (".splat",),
            "splat:read_splat", "splat:write_splat", max_sh_degree=0),  # no higher SH bands stored
-    # spz and sog hold RDF, as splat-transform writes them (docs/ARCHITECTURE.md: core/axes.py)
+    # spz holds RUB, as its documentation, Niantic's library and Blender 5.3 say; sog holds
+    # RDF, as splat-transform writes it (docs/ARCHITECTURE.md: core/axes.py)
     Format("spz", "Niantic SPZ", "SPZ v4 (zstd streams), about a tenth of the float PLY", ".spz", (".spz",),
            "spz:read_spz", "spz_write:write_spz", magic=(b"\x1f\x8b", b"NGSP"), magic_required=True,
-           options=("version",)),
+           options=("version",), axes=AXES_RUB),
     Format("sog", "PlayCanvas SOG", "SOG v2 bundled: WebP images in a zip, the smallest",
            ".sog (or a SOG meta.json)", (".sog",), "sog:read_sog", "sog_write:write_sog",
            magic=(b"PK\x03\x04",), file_names=("meta.json",), options=("iterations", "seed")),

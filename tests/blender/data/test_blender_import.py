@@ -112,14 +112,16 @@ def test_axis_convention_on_object(bpy_empty, testdata):
     up = ply.matrix_basis.to_3x3() @ Vector((0, -1, 0))
     assert tuple(up) == pytest.approx((0, 0, 1), abs=1e-6)
 
+    # .spz is y up, z back (SPZ's documented frame, as Blender 5.3's wm.spz_import reads it)
     spz = import_file(bpy_empty.context, testdata / "test64.spz")
-    assert spz["splatline_axes"] == formats.read(testdata / "test64.spz").axes
-    # an SPZ from Niantic's own tools is y up, z back: the override puts that on the object
-    spz = import_file(bpy_empty.context, testdata / "test64.spz", axes="RUB")
-    assert spz["splatline_axes"] == "RUB"
+    assert spz["splatline_axes"] == formats.read(testdata / "test64.spz").axes == "RUB"
     assert tuple(spz.rotation_euler) == pytest.approx((math.pi / 2, 0, 0), abs=1e-6)
     up = spz.matrix_basis.to_3x3() @ Vector((0, 1, 0))
     assert tuple(up) == pytest.approx((0, 0, 1), abs=1e-6)
+    # a file holding the PLY's values (splat-transform 3.7's .spz): the override says so
+    spz = import_file(bpy_empty.context, testdata / "test64.spz", axes="RDF")
+    assert spz["splatline_axes"] == "RDF"
+    assert tuple(spz.rotation_euler) == pytest.approx((-math.pi / 2, 0, 0), abs=1e-6)
 
     raw = import_file(bpy_empty.context, testdata / "test64.ply", axes="RFU")
     assert tuple(raw.rotation_euler) == (0, 0, 0) and raw["splatline_axes"] == "RFU"

@@ -153,7 +153,7 @@ def test_cli_converts_a_splatline_object_from_a_blend(bpy_empty, testdata, tmp_p
     run = _cli_convert("--object", "test64", blend, tmp_path / "cli.ply")
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "cli.ply").read_bytes() == (tmp_path / "menu.ply").read_bytes()
-    run = _cli_convert("--object", "guitar", "--object", "test64", "--sh-degree", "1", blend, tmp_path / "m.ply")
+    run = _cli_convert("--object", "guitar", "--object", "test64", "--max-sh-degree", "1", blend, tmp_path / "m.ply")
     assert run.returncode == 0, run.stderr
     merged, test64 = formats.read(tmp_path / "m.ply"), formats.read(testdata / "test64.ply")
     assert merged.count == 164 and merged.sh_degree == 1

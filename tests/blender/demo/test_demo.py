@@ -22,7 +22,7 @@ LAYER = "ViewLayer.Combined"
 
 
 def _run_demo(out, *extra):
-    cmd = [sys.executable, "-m", "addon", "demo", "--frames", str(FRAMES),
+    cmd = [sys.executable, "-m", "addon", "demo", "--frames", f"1-{FRAMES}",
            "--resolution", f"{WIDTH}x{HEIGHT}", "--out", str(out), *extra]
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]

@@ -104,7 +104,7 @@ def test_b4_splat_negative_scales_are_reported(tmp_path, testdata):
 def test_b4_convert_negative_scale_writes_no_nan(tmp_path, testdata):
     src = _splat_with_negative_scale(tmp_path, testdata)
     out = tmp_path / "out.ply"
-    proc = subprocess.run([sys.executable, "-m", "addon", "convert", str(src), str(out), "--bad", "fix"],
+    proc = subprocess.run([sys.executable, "-m", "addon", "convert", str(src), str(out), "--bad-values", "fix"],
                           cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert "RuntimeWarning" not in proc.stderr and "scale" in proc.stderr, proc.stderr

@@ -37,15 +37,17 @@ def configure(parser):
     add_bad_values(parser, alias="--bad")
     dynamic = parser.add_argument_group("dynamic (4D) captures")
     dynamic.add_argument("--time", type=float, default=None, metavar="T",
-                         help="bake the capture at its time T (its own unit) to a static file")
+                         help="bake the capture at its time T (its own unit) to a static file "
+                              "(default: none, a dynamic output)")
     dynamic.add_argument("--frames", default=None, metavar="A-B",
                          help="bake scene frames A-B to a numbered sequence (the output names "
-                              "each file with #'s), the capture's time 0 at frame 1")
-    dynamic.add_argument("--fps", type=float, default=None,
+                              "each file with #'s), the capture's time 0 at frame 1 (default: none)")
+    dynamic.add_argument("--fps", metavar="N",
                          help="scene frame rate for --frames (default 24): a capture in seconds "
                               "plays in real time, a Spacetime segment spans 50 frames")
     dynamic.add_argument("--seconds-per-unit", type=float, default=None, metavar="S",
-                         help="to .4dgs from segment time: seconds one segment lasts (e.g. 50/30)")
+                         help="to .4dgs from segment time: seconds one segment lasts, e.g. "
+                              "1.6667 for 50 frames at 30 fps (default: none, refused)")
     edits.add_arguments(parser)
 
 

@@ -11,7 +11,7 @@ import os
 from ..core.dynamic import bake, read_dynamic, timeline, to_fourdgs, to_spacetime, write_dynamic
 from ..core.formats import format_for_output, write
 from . import UsageError
-from .framing_options import DEFAULT_FPS, parse_frames
+from .framing_options import DEFAULT_FPS, MAX_FPS, MIN_FPS, number, parse_frames
 from .writable import check_output_file
 
 DYNAMIC_EXTENSIONS = (".ply", ".splatv", ".4dgs")
@@ -87,7 +87,7 @@ def _bake(args, path, out: str) -> int:
                          f"{FRAME_MARK}'s for its number (e.g. frames/{os.path.basename(out)}_####.ply)")
     unit = timeline.SEGMENT if capture.unit == "segment" else timeline.SECONDS
     mapping = timeline.Mapping(capture.t_start, capture.t_end, start_frame=1.0,
-                               frames_per_unit=timeline.default_frames_per_unit(unit, args.fps or DEFAULT_FPS))
+                               frames_per_unit=timeline.default_frames_per_unit(unit, _fps(args.fps)))
     names = [_numbered(out, frame) for frame in range(first, last + 1)]
     fmt = format_for_output(names[0])
     for name in names[:1]:
@@ -96,6 +96,10 @@ def _bake(args, path, out: str) -> int:
         write(name, bake(capture, timeline.capture_time(mapping, frame)), fmt)
     print(f"{path} frames {first}-{last} -> {names[0]} ... {names[-1]} ({fmt}, {len(names)} files)")
     return 0
+
+
+def _fps(text) -> float:
+    return DEFAULT_FPS if text is None else number("--fps", text, MIN_FPS, MAX_FPS)
 
 
 def _numbered(pattern: str, frame: int) -> str:

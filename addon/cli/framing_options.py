@@ -97,20 +97,21 @@ def read(args, for_blend: bool = False) -> Framing:
         raise UsageError(f"--lens {given['lens']} --fov {given['fov']}: give one or the other")
     if args.seconds is not None and getattr(args, "frames", None):
         raise UsageError(f"--seconds {args.seconds} --frames {args.frames}: give one or the other")
-    fill = _number("--fill", given["fill"], MIN_FILL, MAX_FILL)
+    fill = number("--fill", given["fill"], MIN_FILL, MAX_FILL)
     options = Framing(
         fill=framing.FILL if fill is None else fill,
-        elevation=_number("--elevation", given["elevation"], -MAX_ELEVATION, MAX_ELEVATION),
-        lens=_number("--lens", given["lens"], MIN_LENS, MAX_LENS),
-        fov=_number("--fov", given["fov"], MIN_FOV, MAX_FOV),
-        fps=_number("--fps", args.fps, MIN_FPS, MAX_FPS),
-        seconds=_number("--seconds", args.seconds, 0.0, math.inf, low_open=True))
+        elevation=number("--elevation", given["elevation"], -MAX_ELEVATION, MAX_ELEVATION),
+        lens=number("--lens", given["lens"], MIN_LENS, MAX_LENS),
+        fov=number("--fov", given["fov"], MIN_FOV, MAX_FOV),
+        fps=number("--fps", args.fps, MIN_FPS, MAX_FPS),
+        seconds=number("--seconds", args.seconds, 0.0, math.inf, low_open=True))
     if options.seconds is not None and options.fps is not None:
         options.frame_count(options.fps)  # too long for Blender: refused now
     return options
 
 
-def _number(flag, text, low, high, low_open=False):
+def number(flag, text, low, high, low_open=False):
+    """An option's number within [low, high], or one line (UsageError) naming the option."""
     if text is None:
         return None
     try:

@@ -3,7 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from dataclasses import replace
+
 from addon.core.dynamic.capture import DynamicCapture
+from addon.core.dynamic.convert import to_fourdgs
 from addon.core.sh import C0
 
 
@@ -32,3 +35,21 @@ def spacetime_capture(n: int = 3000, seed: int = 7, segments: int = 1) -> Dynami
         t_scale=np.exp(rng.normal(-0.7, 0.2, count)).astype(f32),
         t_start=0.0, t_end=float(segments), unit="segment",
         segment_offsets=np.arange(segments + 1, dtype=np.int64) * n).check()
+
+
+def linear_capture(n: int = 3000, seed: int = 7) -> DynamicCapture:
+    """The same blob with linear motion only, in seconds over [0, 2] (a linear-motion PLY)."""
+    c = spacetime_capture(n, seed)
+    return replace(c, model="linear", motion=np.ascontiguousarray(c.motion[:, :1]), omega=None,
+                   t_center=c.t_center * np.float32(2.0), t_scale=c.t_scale * np.float32(2.0),
+                   t_end=2.0, unit="seconds", segment_offsets=None).check()
+
+
+def fourdgs_capture(n: int = 3000, seed: int = 7) -> DynamicCapture:
+    """The linear capture in .4dgs' model (seconds, Gaussian fade, cut-off)."""
+    return to_fourdgs(linear_capture(n, seed)).check()
+
+
+# representation -> (file name, generator): every kind Splatline reads
+KINDS = {"spacetime": ("dancer.ply", spacetime_capture), "splatv": ("dancer.splatv", spacetime_capture),
+         "linear": ("walker.ply", linear_capture), "4dgs": ("walker.4dgs", fourdgs_capture)}

@@ -15,7 +15,7 @@ import numpy as np
 from .sort import far_to_near
 
 
-class Deferred:
+class LazyArray:
     """fn(source), made on first use by whichever thread sorts first: with the sort on the
     worker, an effect's new centres or sizes are laid out for it there, not on the drawing
     thread. Two threads racing make the same array twice, harmlessly."""
@@ -35,19 +35,19 @@ class Deferred:
 
 
 def _array(a):
-    return a.value if isinstance(a, Deferred) else a
+    return a.value if isinstance(a, LazyArray) else a
 
 
 @dataclass
 class SortInput:
     """One object's part of the sort: centres, bounding radii and where they are placed."""
 
-    soa: np.ndarray | Deferred   # (3, N) float32 centres, object space, one row per axis
+    soa: np.ndarray | LazyArray   # (3, N) float32 centres, object space, one row per axis
     local_to_camera: np.ndarray  # (4, 4) float64 (Blender camera: looks down -z)
     cull: bool = True
     dilation: float = 0.2        # frustum grown by this fraction of its half-size
     radius_scale: float = 1.0    # splat scale multipliers applied to the radii
-    radius: np.ndarray | Deferred | None = None  # (N,) float32 bounding radius (bounding_radius)
+    radius: np.ndarray | LazyArray | None = None  # (N,) float32 bounding radius (bounding_radius)
 
     @staticmethod
     def of(positions: np.ndarray, local_to_camera, cull: bool = True, dilation: float = 0.2,

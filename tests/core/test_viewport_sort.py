@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.core.clip_space import projection_matrix
-from addon.core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
+from addon.core.viewport_sort import (LazyArray, SortInput, SortWorker, bounding_radius, centres_layout,
                                       visible_order)
 from addon.core.camera import look_at, simple_camera
 from addon.core.sort import back_to_front, depth_keys, far_to_near, radix_argsort
@@ -92,7 +92,7 @@ def test_objects_interleave_in_one_order():
 
 
 def test_deferred_inputs_sort_as_their_arrays_and_are_made_once():
-    """The viewport hands the sort its centres and radii as Deferred (made on the sorting
+    """The viewport hands the sort its centres and radii as LazyArray (made on the sorting
     thread): the same order, culling by radius included, and each made on first use only."""
     cam = _camera()
     rng = np.random.default_rng(3)
@@ -105,8 +105,8 @@ def test_deferred_inputs_sort_as_their_arrays_and_are_made_once():
     def counted(fn):
         return lambda a: made.append(fn.__name__) or fn(a)
 
-    deferred = SortInput(Deferred(counted(centres_layout), pts), cam.world_to_camera, True, 0.0, 1.0,
-                         Deferred(counted(bounding_radius), scales))
+    deferred = SortInput(LazyArray(counted(centres_layout), pts), cam.world_to_camera, True, 0.0, 1.0,
+                         LazyArray(counted(bounding_radius), scales))
     assert made == []
     expect = visible_order([plain], proj, cam.near, cam.far)
     assert expect.radius_dependent, "the scene must cull by radius for this test to see it"

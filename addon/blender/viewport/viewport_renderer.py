@@ -22,7 +22,7 @@ from .effect_rows import displace_layers, displace_of, effect_rows, morph_of
 from .effect_textures import EffectTextures
 from .pack_cache import PackCache, data_key, joined, pos_source, positions_key_of, reads_rest, upload_if_new
 from .staging import ALL, ALPHA, PosStage, ShapeStage
-from ...core.viewport_sort import (Deferred, SortInput, SortWorker, bounding_radius, centres_layout,
+from ...core.viewport_sort import (LazyArray, SortInput, SortWorker, bounding_radius, centres_layout,
                                    visible_order)
 
 RESORT_EPS = 1e-5  # matrix change (relative) below which the last order is kept
@@ -207,13 +207,13 @@ class ViewportRenderer:
         self.gpu.sh_values = values
         # Filed under positions_key: a colour, opacity or scale effect changes item.key
         # every frame but not the centres, and must not cost a re-sort.
-        # Deferred: made by the sort that first needs them (the worker's, in the draw
+        # LazyArray: made by the sort that first needs them (the worker's, in the draw
         # handler's mode), so an effect moving or resizing splats costs the drawing thread
         # neither the centres' layout nor the radii.
         soa = [self.packs.get("centres", i, (i.splats.positions,),
-                              lambda i=i: Deferred(centres_layout, i.splats.positions), key=positions_key_of(i))
+                              lambda i=i: LazyArray(centres_layout, i.splats.positions), key=positions_key_of(i))
                for i in items]
-        radii = [self.packs.get("radius", i, _cull_scales(i), lambda i=i: Deferred(_radius, _cull_scales(i)),
+        radii = [self.packs.get("radius", i, _cull_scales(i), lambda i=i: LazyArray(_radius, _cull_scales(i)),
                                 key=data_key(i, ("scales",)))
                  for i in items]
         token = tuple(ident for ident, _ in soa)

@@ -271,7 +271,7 @@ def read_fourdgs(path, max_splats=None) -> DynamicCapture:
     capture = DynamicCapture(model="4dgs", omega=None, cutoff=float(head["cutoff"]), axes=AXES_RDF, t_start=0.0,
                              t_end=float(head["duration"]), unit="seconds", duration=float(head["duration"]),
                              source=".4dgs", **out)
-    return drop_bad(capture.check()) if capture.count else capture.check()  # drop_bad cannot take 0 splats
+    return drop_bad(capture.check())
 
 
 def _decode_chunk(path, what, s, q, windows, k, out) -> None:

@@ -149,6 +149,8 @@ def drop_bad(capture: DynamicCapture) -> DynamicCapture:
     rotation is zero at every time; count them by field in capture.dropped. Zero scales (an
     underflowed exp) become TINY_SCALE, as core/validate.py's 'fix' does."""
     n = capture.count
+    if n == 0:  # nothing to check (and reshape(0, -1) has no width to infer)
+        return capture
     checks = {
         "position": capture.positions, "motion": capture.motion.reshape(n, -1),
         "rotation": capture.rotations, "scale": capture.scales, "colour": capture.sh_dc,

@@ -148,3 +148,12 @@ def test_conversions(tmp_path, capture):
         check_against_reference(fourd, 2.0 * t)
     with pytest.raises(SplatFormatError, match="cannot write"):
         write_dynamic(tmp_path / "x.spz", capture)
+
+
+def test_the_bad_value_pass_takes_a_capture_of_no_splats():
+    """drop_bad, which every reader runs, on 0 splats (reshape(0, -1) has no width)."""
+    from addon.core.dynamic.ply_read import drop_bad, subset
+    from testing.dynamic_scenes import spacetime_capture
+
+    capture = spacetime_capture(4)
+    assert drop_bad(subset(capture, np.zeros(capture.count, bool))).count == 0

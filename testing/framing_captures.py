@@ -13,7 +13,7 @@ from addon.core.splats import SplatSet
 SUBJECT_HEIGHT = 2.0  # the haloed subject's, base included (file units)
 
 
-def haloed_capture(subject: int = 40000, halo: int = 15000, seed: int = 0,
+def haloed_capture(subject: int = 40000, halo: int = 2600, seed: int = 0,
                    halo_size: float = 5.0) -> SplatSet:
     """A robot on a base (an upright ellipsoid shell, 0.7 x 1.6 x 0.5, on a flat disk of
     radius 0.6), of trained-looking opaque splats, inside a ball `halo_size` times the

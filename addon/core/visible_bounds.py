@@ -39,14 +39,14 @@ MAX_DEPTH = -math.log(1.0 - 0.999)  # one splat's optical depth: opacity 1 is no
 def visible_bounds(points, opacities, scales) -> Bounds:
     """The 2nd-98th percentile box of the centres of the splats that show. points: (N, 3)
     world centres; opacities: (N,); scales: (N, 3) world-scaled (linear, not log)."""
-    pts, depth, footprint = _sample(points, opacities, scales)
+    pts, depth, footprint, reach = _sample(points, opacities, scales)
     if len(pts) < MIN_SHOWN:
         return robust_bounds(points)
     box = robust_bounds(pts, *WIDE)
     kept = None
     for room in ROOM:
         pad = room * float((box.high - box.low).max())
-        kept = shown(pts, depth, footprint, box.low - pad, box.high + pad)
+        kept = shown(pts, depth, footprint, reach, box.low - pad, box.high + pad)
         if np.count_nonzero(kept) < MIN_SHOWN:
             return robust_bounds(points)
         box = robust_bounds(pts[kept])
@@ -54,8 +54,8 @@ def visible_bounds(points, opacities, scales) -> Bounds:
 
 
 def _sample(points, opacities, scales):
-    """The finite splats of a strided sample: centres, optical depth (weighted by the stride)
-    and footprint area."""
+    """The finite splats of a strided sample: centres, optical depth (weighted by the stride),
+    footprint area and reach (the largest scale)."""
     pts = np.asarray(points, np.float64).reshape(-1, 3)
     stride = max(1, -(-len(pts) // SAMPLE))
     pts = pts[::stride]
@@ -64,27 +64,38 @@ def _sample(points, opacities, scales):
     large, small = s.max(axis=1), s.min(axis=1)
     footprint = 2.0 * math.pi * large * (s.sum(axis=1) - large - small)
     depth = stride * np.minimum(-np.log1p(-np.clip(alpha, 0.0, 0.999)), MAX_DEPTH)
-    finite = np.isfinite(pts).all(axis=1)
+    finite = np.isfinite(pts[:, 0]) & np.isfinite(pts[:, 1]) & np.isfinite(pts[:, 2])
     if finite.all():
-        return pts, depth, footprint
-    return pts[finite], depth[finite], footprint[finite]
+        return pts, depth, footprint, large
+    return pts[finite], depth[finite], footprint[finite], large[finite]
 
 
-def shown(pts, depth, footprint, low, high, cells=CELLS, cover=COVER) -> np.ndarray:
+def shown(pts, depth, footprint, reach, low, high, cells=CELLS, cover=COVER) -> np.ndarray:
     """Whether each splat's cell reaches alpha `cover` in each of the three axis views of a
     grid of cubic cells over [low, high] (`cells` along its longest side); splats outside
-    the grid are not shown."""
+    the grid are not shown. A splat wider than a cell adds its depth at the level of a
+    pyramid of cells (each twice the one below) whose cells hold it, so large splats that
+    overlap add up; a cell's alpha counts every level above it."""
     extent = np.maximum(high - low, 1e-12)
     cell = float(extent.max()) / cells
     dims = np.maximum(np.ceil(extent / cell).astype(np.int64), 1)
     ijk = np.floor((pts - low) / cell).astype(np.int64)
-    kept = ((ijk >= 0) & (ijk < dims)).all(axis=1)
+    kept = (ijk[:, 0] >= 0) & (ijk[:, 0] < dims[0])
+    for c in (1, 2):  # a column at a time: numpy's reduction along rows of 3 is slow
+        kept &= (ijk[:, c] >= 0) & (ijk[:, c] < dims[c])
     index = np.flatnonzero(kept)
     ijk = ijk[index]
-    weight = depth[index] * np.minimum(1.0, footprint[index] / (cell * cell))
+    top = max(0, math.ceil(math.log2(cells)))
+    level = np.clip(np.ceil(np.log2(np.maximum(2.0 * reach[index] / cell, 1.0))), 0, top).astype(np.int64)
+    weight = depth[index] * np.minimum(1.0, footprint[index] / (cell * np.exp2(level)) ** 2)
     needed = -math.log(1.0 - cover)
+    steps = [(int(step), level == step) for step in np.flatnonzero(np.bincount(level))]
     for a, b in ((1, 2), (0, 2), (0, 1)):  # looking along x, y and z
-        flat = ijk[:, a] * dims[b] + ijk[:, b]
-        view = np.bincount(flat, weights=weight, minlength=int(dims[a] * dims[b]))
-        kept[index] &= view[flat] >= needed
+        seen = np.zeros(len(index))
+        for step, here in steps:
+            rows = -(-dims[b] // (1 << step))
+            at = (ijk[:, a] >> step) * rows + (ijk[:, b] >> step)
+            view = np.bincount(at[here], weights=weight[here], minlength=int((dims[a] >> step) + 1) * rows)
+            seen += view[at]
+        kept[index] &= seen >= needed
     return kept

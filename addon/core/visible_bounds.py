@@ -7,11 +7,15 @@ the splats round it add up to a visible alpha, seen along each world axis: a coa
 orthographic alpha pass, no renderer needed. Each splat adds its optical depth
 -log(1 - opacity), spread over its cell in proportion to its footprint (2 pi times its two
 largest scales: a Gaussian's integral) when that is smaller than the cell; a cell's alpha
-is 1 - exp(-sum). A splat is kept when its cell's alpha reaches COVER in all three views
-(a visual hull of the three silhouettes), and the usual 2nd-98th percentile box is taken
-over the kept centres. The opacity of a single splat always counts in its own cell, so a
-splat that would show on its own is never dropped; nor does the order of splats matter
-(alpha along a line of sight is order-free).
+is 1 - exp(-sum); a splat wider than a cell adds its depth at the level of a pyramid of
+cells (each twice the one below) whose cells hold it, so large splats that overlap add up.
+A splat is kept when its cell's alpha reaches COVER in all three views (a visual hull of
+the three silhouettes), and the usual 2nd-98th percentile box is taken over the kept
+centres. So what counts is what covers a cell at the scale of the subject (a 64th of its
+box): a solid surface, a haze, a single opaque splat as large as a cell; not a sparse halo
+of faint splats, nor a few opaque specks far smaller than a cell (floaters, which the
+percentiles trim as before). Alpha along a line of sight does not depend on the splats'
+order, so no sort is needed.
 
 Two passes: the first over the wide box of the centres (0.5th-99.5th percentiles), whose
 cells are coarse when the halo is wide; the second over the first pass's box with room

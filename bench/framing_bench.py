@@ -21,7 +21,7 @@ from addon.core.camera import camera_from_params, rigid_inverse
 from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.visible_bounds import visible_bounds
-from testing.framing_captures import haloed_capture, one_sided_shell
+from testing.framing_captures import alpha_fill, haloed_capture, one_sided_shell
 from testing.paths import SHARED_TESTDATA
 
 W, H, FRAMES = 320, 180, 8
@@ -61,10 +61,7 @@ def fills(splats, new: bool) -> tuple[list[float], np.ndarray]:
     for pose in poses:
         camera = camera_from_params(rigid_inverse(pose), resolution_x=W, resolution_y=H,
                                     clip_start=near, clip_end=far)
-        alpha = render([item], camera, RenderOptions()).rgba[..., 3] > 0.5
-        rows, cols = np.nonzero(alpha)
-        out.append(0.0 if not len(rows) else
-                   max(np.ptp(rows) + 1, np.ptp(cols) + 1) / min(W, H))
+        out.append(alpha_fill(render([item], camera, RenderOptions()).rgba[..., 3]))
     return out, front
 
 

@@ -80,3 +80,13 @@ def _quaternion_taking_z_to(normals) -> np.ndarray:
     flipped = w < 1e-9  # the normal is -z: half a turn about x
     q[flipped] = (0.0, 1.0, 0.0, 0.0)
     return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def alpha_fill(alpha, threshold: float = 0.5) -> float:
+    """The fill the framing promises, measured on a frame's alpha (H, W) in 0-1: the
+    bounding rectangle of the pixels above `threshold`, its larger side over the frame's
+    shorter side (0 for an empty frame)."""
+    rows, cols = np.nonzero(np.asarray(alpha) > threshold)
+    if not len(rows):
+        return 0.0
+    return max(np.ptp(rows) + 1, np.ptp(cols) + 1) / min(np.shape(alpha))

@@ -21,6 +21,7 @@ from addon.core.camera import camera_from_params, rigid_inverse
 from addon.core.reference import render
 from addon.core.scene import RenderItem, RenderOptions
 from addon.core.visible_bounds import visible_bounds
+from bench.common import wall_and_cpu
 from testing.framing_captures import alpha_fill, haloed_capture, one_sided_shell
 from testing.paths import SHARED_TESTDATA
 
@@ -65,7 +66,35 @@ def fills(splats, new: bool) -> tuple[list[float], np.ndarray]:
     return out, front
 
 
+def framing_cost(count: int = 1_000_000, runs: int = 5) -> None:
+    """CPU of the framing's reading of a `count`-splat capture, old and new (the new adds
+    the visible box, the normals of a sample and the facing), medians of `runs`."""
+    splats = haloed_capture(subject=count * 94 // 100, halo=count * 6 // 100)
+    rotation = np.eye(4)
+    rotation[:3, :3] = matrix_for(splats.axes)
+    points = splats.positions.astype(np.float64) @ rotation[:3, :3].T
+    up, ahead = framing.capture_axes(splats.axes, rotation)
+
+    def old(_):
+        bounds = framing.robust_bounds(points)
+        framing.front_direction(points, bounds, up, ahead)
+
+    def new(_):
+        bounds = visible_bounds(points, splats.opacities, splats.scales)
+        stride = facing.sample_stride(len(points))
+        normals, flatness = facing.splat_normals(splats.rotations[::stride], splats.scales[::stride],
+                                                 rotation)
+        faces = facing.facing(points[::stride], normals, flatness * splats.opacities[::stride],
+                              bounds.centre, up)
+        framing.front_direction(points, bounds, up, ahead, faces)
+
+    (_, before), (_, after) = wall_and_cpu(old, runs), wall_and_cpu(new, runs)
+    print(f"framing a {count:,}-splat capture (bounds and front), CPU s, median of {runs}: "
+          f"old {before:.3f}, new {after:.3f} (+{after - before:.3f})")
+
+
 def main():
+    framing_cost()
     print(f"orbit fill per frame ({FRAMES} frames, {W}x{H}, alpha > 0.5), old framing / new; "
           f"front: azimuth of the front view's look, degrees counter-clockwise from +y (Blender)")
     for name, splats in captures():

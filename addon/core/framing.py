@@ -3,16 +3,20 @@
 A capture's own frame decides what "up" means: the file's up axis (-y for the RDF frame of
 3DGS/COLMAP files, +y for RUB, +z for RFU). Its forward is the direction its reference
 camera looked (+z in RDF, -z in RUB, +y in RFU); that camera often stood off to the
-subject's side (guitar.ply's looks at the guitar's edge), so "front" is the subject's own:
-the front view looks level, across the subject's broad face (front_direction: the
-horizontal axis along which the centres spread least), from the side the capture's camera
-stood on. The side view stands a quarter turn counter-clockwise from it (seen from above).
+subject's side (guitar.ply's looks at the guitar's edge) or its back, so "front" is the
+subject's own: the front view looks level at the side the capture's flat splats face
+(core/facing.py: the side it was photographed from), across the subject's broad face (the
+horizontal axis along which the centres spread least) when that is near; a capture
+photographed all round faces no side, and front is the broad face seen from the side the
+capture's camera stood on (front_direction). The side view stands a quarter turn
+counter-clockwise from it (seen from above); `turned` turns any of them (--azimuth).
 The capture view looks along the capture's forward, levelled. The orbit starts at the
 front view, lifted by ELEVATION_DEG, and turns once about up.
 
 Bounds come from the 2nd and 98th percentiles of the world-space centres, so a few
 floaters far from the subject neither shrink it (by pushing the camera away) nor move the
-point looked at. fill_distance puts the camera where the bounds' projected box spans FILL
+point looked at; the command line's cameras take them over the splats that show
+(core/visible_bounds.py), which leaves out the faint halo real captures carry. fill_distance puts the camera where the bounds' projected box spans FILL
 of the frame's shorter side (in the widest frame of an orbit); fit_distance is the older,
 looser fit of the sphere round the box, which left a compact subject at under half the frame.
 """

@@ -7,14 +7,9 @@ import sys
 TABLES = (
     "formats_bench", "plyfile_bench", "import_bench", "reference_bench", "render_bench", "viewport_bench",
     "effects_bench", "sequence_bench", "engine_bench", "engine_paths_bench", "final_frame_bench",
-<<<<<<< HEAD
-    "cli_frame_bench", "colour_profile_bench", "fragment_census", "tile_blend_probe", "cell_stop_estimate",
-    "native_engines_bench", "handoff_bench", "holdout_bench", "mesh_layer_bench", "film_convert_bench",
-    "render_result_fill_bench", "frame_digests", "dynamic_bench",
-=======
-    "cli_frame_bench", "colour_profile_bench", "native_engines_bench", "handoff_bench", "holdout_bench", "mesh_layer_bench", "film_convert_bench",
-    "render_result_fill_bench",
->>>>>>> peers
+    "cli_frame_bench", "colour_profile_bench", "native_engines_bench", "handoff_bench", "holdout_bench",
+    "mesh_layer_bench", "film_convert_bench", "render_result_fill_bench", "frame_digests", "dynamic_bench",
+    "dynamic_scrub_bench", "framing_bench",
 )
 
 

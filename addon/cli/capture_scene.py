@@ -91,7 +91,7 @@ def add_camera(bpy, objects, camera, frames=None, options: Framing = Framing(), 
             capture_camera.set_frame_rate(scene, options.fps)
         start, end = frames or (scene.frame_start, scene.frame_end)
         capture_camera.add_framing_camera(bpy.context, objects, camera, start, end, options.fill,
-                                          options.elevation, options.lens, options.fov)
+                                          options.elevation, options.lens, options.fov, options.azimuth)
         if camera == "capture":
             _say_capture_fallback(objects[0], source)
         return

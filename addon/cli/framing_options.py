@@ -17,6 +17,7 @@ DEFAULT_FPS = 24  # Blender's own default scene rate, which the CLI's scenes kee
 DEFAULT_ORBIT_FRAMES = 120  # five seconds at 24 fps: one slow turn
 MIN_FILL, MAX_FILL = 0.05, 1.0
 MAX_ELEVATION = 89.0  # straight down the up axis the frame would have no "up"
+MAX_AZIMUTH = 360.0
 # Blender's limits (RNA of Camera.lens (hard min; soft max: its slider's), Camera.angle and
 # RenderSettings.fps on 4.5-5.3; tests/cli/test_cli_framing.py checks them against RNA).
 MIN_LENS, MAX_LENS = 1.0, 5000.0
@@ -27,9 +28,12 @@ MAX_FRAME = 1048574  # Scene.frame_start/frame_end's hard max (render.py's limit
 CAMERA_HELP = (
     "a view or a camera track. Views, in the capture's upright frame (its up is the file's "
     "up axis): orbit (default: one turn counter-clockwise round the capture over the frame "
-    "range, starting at front, ELEVATION degrees up); front (a still, level view of the "
-    "subject's broad face, found as the level axis along which its splats spread least, seen "
-    "from the side the capture's camera stood on: guitar.ply's top, strings and pickups); side "
+    "range, starting at front, ELEVATION degrees up); front (a still, level view: a guess, as no "
+    "format records where the capture's cameras stood. It looks at the side the capture's flat "
+    "splats face, which is the side it was photographed from, along the subject's broad face "
+    "(the level axis along which its splats spread least) when that is near: guitar.ply's top, "
+    "strings and pickups. A capture from all round has no such side: front is then the broad "
+    "face seen from the side the file's camera stood on. --azimuth turns it); side "
     "(a still view a quarter turn counter-clockwise from front, seen from above); capture (a "
     "still view along the capture's own camera direction, the file's forward axis: +z for "
     "3DGS/COLMAP PLY; no format Splatline reads stores a camera's position or lens, so it stands "
@@ -42,6 +46,7 @@ class Framing:
     """The framing flags, checked; None where the flag was not given."""
     fill: float = framing.FILL
     elevation: float | None = None
+    azimuth: float = 0.0
     lens: float | None = None
     fov: float | None = None
     fps: float | None = None
@@ -59,13 +64,19 @@ def add_arguments(parser, render: bool = True) -> None:
     parser.add_argument("--camera", metavar="VIEW|TRACK.json",
                         help=only + CAMERA_HELP.replace("ELEVATION", f"{framing.ELEVATION_DEG:g}"))
     parser.add_argument("--fill", metavar="FRACTION",
-                        help=f"{only}how much of the frame's shorter side the capture's robust "
-                             f"bounds (2nd-98th percentile box of its splat centres) span, in every frame of "
-                             f"an orbit, {MIN_FILL:g}-{MAX_FILL:g} (default {framing.FILL:g})")
+                        help=f"{only}how much of the frame's shorter side the capture spans in the "
+                             f"widest frame of an orbit: the 2nd-98th percentile box of the centres of the "
+                             f"splats that show (a faint, sparse halo round the subject does not count), "
+                             f"{MIN_FILL:g}-{MAX_FILL:g} (default {framing.FILL:g})")
     parser.add_argument("--elevation", metavar="DEGREES",
                         help=f"{only}the camera's height above the capture's horizon, "
                              f"-{MAX_ELEVATION:g} to {MAX_ELEVATION:g} degrees (default "
                              f"{framing.ELEVATION_DEG:g} for orbit, 0 for the still views)")
+    parser.add_argument("--azimuth", metavar="DEGREES",
+                        help=f"{only}turn every view (and the orbit's start) this far counter-clockwise "
+                             f"about the capture's up, seen from above, from where it would stand: "
+                             f"180 when front shows the subject's back, -{MAX_AZIMUTH:g} to "
+                             f"{MAX_AZIMUTH:g} (default 0)")
     lens = parser.add_argument_group("lens (" + ("for a CAPTURE; " if render else "") + "one of)")
     lens.add_argument("--lens", metavar="MM",
                       help=f"focal length on a 36 mm sensor, {MIN_LENS:g}-{MAX_LENS:g} (default 50)")
@@ -88,7 +99,7 @@ def add_arguments(parser, render: bool = True) -> None:
 def read(args, for_blend: bool = False) -> Framing:
     """The flags of `args` checked (UsageError: one line, exit 2). for_blend: the input is a
     .blend, whose cameras stay its own: the capture-only flags are refused."""
-    given = {name: getattr(args, name, None) for name in ("fill", "elevation", "lens", "fov")}
+    given = {name: getattr(args, name, None) for name in ("fill", "elevation", "azimuth", "lens", "fov")}
     if for_blend:
         for name, text in given.items():
             if text is not None:
@@ -101,6 +112,7 @@ def read(args, for_blend: bool = False) -> Framing:
     options = Framing(
         fill=framing.FILL if fill is None else fill,
         elevation=number("--elevation", given["elevation"], -MAX_ELEVATION, MAX_ELEVATION),
+        azimuth=number("--azimuth", given["azimuth"], -MAX_AZIMUTH, MAX_AZIMUTH) or 0.0,
         lens=number("--lens", given["lens"], MIN_LENS, MAX_LENS),
         fov=number("--fov", given["fov"], MIN_FOV, MAX_FOV),
         fps=number("--fps", args.fps, MIN_FPS, MAX_FPS),

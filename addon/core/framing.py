@@ -3,16 +3,20 @@
 A capture's own frame decides what "up" means: the file's up axis (-y for the RDF frame of
 3DGS/COLMAP files, +y for RUB, +z for RFU). Its forward is the direction its reference
 camera looked (+z in RDF, -z in RUB, +y in RFU); that camera often stood off to the
-subject's side (guitar.ply's looks at the guitar's edge), so "front" is the subject's own:
-the front view looks level, across the subject's broad face (front_direction: the
-horizontal axis along which the centres spread least), from the side the capture's camera
-stood on. The side view stands a quarter turn counter-clockwise from it (seen from above).
+subject's side (guitar.ply's looks at the guitar's edge) or its back, so "front" is the
+subject's own: the front view looks level at the side the capture's flat splats face
+(core/facing.py: the side it was photographed from), across the subject's broad face (the
+horizontal axis along which the centres spread least) when that is near; a capture
+photographed all round faces no side, and front is the broad face seen from the side the
+capture's camera stood on (front_direction). The side view stands a quarter turn
+counter-clockwise from it (seen from above); `turned` turns any of them (--azimuth).
 The capture view looks along the capture's forward, levelled. The orbit starts at the
 front view, lifted by ELEVATION_DEG, and turns once about up.
 
 Bounds come from the 2nd and 98th percentiles of the world-space centres, so a few
 floaters far from the subject neither shrink it (by pushing the camera away) nor move the
-point looked at. fill_distance puts the camera where the bounds' projected box spans FILL
+point looked at; the command line's cameras take them over the splats that show
+(core/visible_bounds.py), which leaves out the faint halo real captures carry. fill_distance puts the camera where the bounds' projected box spans FILL
 of the frame's shorter side (in the widest frame of an orbit); fit_distance is the older,
 looser fit of the sphere round the box, which left a compact subject at under half the frame.
 """
@@ -35,6 +39,10 @@ FILL = 0.8  # of the frame's shorter side: room round the subject, its trimmed t
 MODES = ("orbit", "capture", "front", "side")
 ORBIT_SAMPLES = 720  # azimuths the orbit's fit checks (frames fall within 0.25 degrees of one)
 ISOTROPIC = 0.95  # horizontal spreads closer than this ratio: no broad face to call front
+# A facing (core/facing.py) this long decides the front: a hemisphere seen from one side
+# gives 0.5, guitar.ply 0.15, a shell closed all round under 0.01
+FACING_SURE = 0.1
+FACING_SNAP = 30.0  # degrees: a broad face's axis this near the facing is the front's
 
 
 # Rows a product takes at once (rows_times): under OpenBLAS's threshold for threading
@@ -131,26 +139,49 @@ def fit_box_distance(bounds: Bounds, tan_half_x: float, tan_half_y: float) -> fl
     return max(width / 2 / tan_half_x, height / 2 / tan_half_y) + width / 2
 
 
-def front_direction(points_world, bounds: Bounds, up, forward) -> np.ndarray:
-    """The level direction the front view looks along: the eigenvector of least spread of
-    the centres inside the bounds, in the plane level with up, signed to point the way the
-    capture's camera looked. A subject with no broad face (spreads within ISOTROPIC) keeps
-    the capture camera's own direction, levelled."""
+def front_direction(points_world, bounds: Bounds, up, forward, facing=None) -> np.ndarray:
+    """The level direction the front view looks along. `facing` (core/facing.py: the level
+    direction the capture's splats face, as long as it is sure) decides where it is at
+    least FACING_SURE: the view looks back against it, along the subject's broad face's
+    axis when that is within FACING_SNAP of it. Otherwise: that axis (the eigenvector of
+    least spread of the centres inside the bounds, in the plane level with up), signed to
+    point the way the capture's camera looked; a subject with no broad face (spreads within
+    ISOTROPIC) keeps the capture camera's own direction, levelled."""
     up = np.asarray(up, np.float64)
     ahead = _level(up, forward)
+    broad = _broad_face_axis(points_world, bounds, up, ahead)
+    sure = facing is not None and float(np.linalg.norm(facing)) >= FACING_SURE
+    if not sure:
+        return ahead if broad is None else (broad if broad @ ahead >= 0.0 else -broad)
+    against = -_level(up, facing)
+    if broad is not None and abs(float(broad @ against)) >= math.cos(math.radians(FACING_SNAP)):
+        return broad if broad @ against >= 0.0 else -broad
+    return against
+
+
+def _broad_face_axis(points_world, bounds: Bounds, up, ahead):
+    """The level axis along which the centres inside the bounds spread least, or None when
+    the level spreads are within ISOTROPIC of each other."""
     across = np.cross(up, ahead)
     pts = np.asarray(points_world, np.float64).reshape(-1, 3)
     inside = np.compress(_in_box(pts, bounds), pts, axis=0)  # a copy: shifted in place
     inside -= bounds.centre
     if len(inside) < 3:
-        return ahead
+        return None
     spread = np.cov(np.stack([rows_times(inside, ahead), rows_times(inside, across)]))
     values, vectors = np.linalg.eigh(spread)
     if values[1] <= 0.0 or math.sqrt(max(values[0], 0.0) / values[1]) > ISOTROPIC:
-        return ahead
+        return None
     a, b = vectors[:, 0]
-    direction = a * ahead + b * across
-    return direction if a >= 0.0 else -direction
+    return a * ahead + b * across
+
+
+def turned(direction, up, degrees: float) -> np.ndarray:
+    """A level direction turned `degrees` counter-clockwise about up (seen from above): the
+    command line's --azimuth, applied to the front before any view is built from it."""
+    up, direction = np.asarray(up, np.float64), _level(up, direction)
+    angle = math.radians(degrees)
+    return direction * math.cos(angle) + np.cross(up, direction) * math.sin(angle)
 
 
 def view_azimuth(view: str) -> float:

@@ -13,10 +13,11 @@ import numpy as np
 import bpy
 from mathutils import Matrix
 
-from ...core import camtrack, framing
+from ...core import camtrack, facing, framing
+from ...core.visible_bounds import visible_bounds
 from .animation import action_fcurves, set_interpolation
 from .files import object_axes
-from .pointcloud import read_positions
+from .pointcloud import read_opacities_scales_rotations, read_positions
 
 CAMERA_NAME = "Splat Camera"
 LENS_MM, SENSOR_MM = 50.0, 36.0
@@ -36,6 +37,25 @@ def splat_world_points(objects, own_transforms=False) -> np.ndarray:
     if len(parts) == 1:  # one capture (a command-line import): no 24 MB copy a million
         return parts[0]
     return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+
+def _splat_looks(objects, own_transforms):
+    """What framing reads besides the centres, in splat_world_points' order: each splat's
+    opacity and world-scaled scales (which splats show: core/visible_bounds.py), and for a
+    strided sample (its rows) the world normals and weights of core/facing.py."""
+    stride = facing.sample_stride(sum(len(obj.data.points) for obj in objects))
+    parts, offset = [], 0
+    for obj in objects:
+        matrix = np.array(obj.matrix_basis if own_transforms else obj.matrix_world, np.float64)[:3, :3]
+        alpha, scales, rotations = read_opacities_scales_rotations(obj.data)
+        normals, flatness = facing.splat_normals(rotations[::stride], scales[::stride], matrix)
+        size = abs(float(np.linalg.det(matrix))) ** (1.0 / 3.0)  # a uniform scale's factor
+        parts.append((alpha, scales * size, normals, flatness * alpha[::stride],
+                      offset + np.arange(0, len(alpha), stride)))
+        offset += len(alpha)
+    if not parts:
+        return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
+    return tuple(part[0] if len(parts) == 1 else np.concatenate(part) for part in zip(*parts))
 
 
 def _own_transforms(objects) -> bool:
@@ -66,13 +86,15 @@ def _tan_halves(scene, data) -> tuple[float, float]:
 
 
 def add_framing_camera(context, objects, mode="orbit", frame_start=None, frame_end=None,
-                       fill=framing.FILL, elevation=None, lens=None, fov=None):
-    """A camera framing `objects` (splat objects) so their robust bounds span `fill` of the
-    frame's shorter side: "orbit" keys one full turn over the frame range, a key a frame;
-    "capture", "front" and "side" are one still key (core/framing.py says what they mean).
-    elevation: degrees above the capture's horizon (default: ELEVATION_DEG for the orbit,
-    level for a still view); lens (mm) or fov (degrees, across the frame's longer side):
-    default LENS_MM. Returns the camera object."""
+                       fill=framing.FILL, elevation=None, lens=None, fov=None, azimuth=0.0):
+    """A camera framing `objects` (splat objects) so the bounds of their splats that show
+    (core/visible_bounds.py) span `fill` of the frame's shorter side: "orbit" keys one full
+    turn over the frame range, a key a frame; "capture", "front" and "side" are one still
+    key (core/framing.py says what they mean). elevation: degrees above the capture's
+    horizon (default: ELEVATION_DEG for the orbit, level for a still view); azimuth:
+    degrees every view turns counter-clockwise about up (seen from above) from where it
+    would stand; lens (mm) or fov (degrees, across the frame's longer side): default
+    LENS_MM. Returns the camera object."""
     if mode not in framing.MODES:
         raise ValueError(f"camera mode {mode!r} is not one of {framing.MODES}")
     scene = context.scene
@@ -82,10 +104,14 @@ def add_framing_camera(context, objects, mode="orbit", frame_start=None, frame_e
     start = scene.frame_start if frame_start is None else frame_start
     end = scene.frame_end if frame_end is None else frame_end
     points = splat_world_points(objects, own)
-    bounds = framing.robust_bounds(points)
+    opacities, scales, normals, weights, rows = _splat_looks(objects, own)
+    bounds = visible_bounds(points, opacities, scales)
     placed = objects[0].matrix_basis if own else objects[0].matrix_world
     up, ahead = framing.capture_axes(object_axes(objects[0]), np.array(placed))
-    forward = ahead if mode == "capture" else framing.front_direction(points, bounds, up, ahead)
+    if mode != "capture":
+        faces = facing.facing(points[rows], normals, weights, bounds.centre, up)
+        ahead = framing.front_direction(points, bounds, up, ahead, faces)
+    forward = framing.turned(ahead, up, azimuth)
     camera = new_camera(scene)
     if lens is not None:
         camera.data.lens = lens

@@ -312,3 +312,14 @@ def read_positions(pointcloud) -> np.ndarray:
     if n == 0:
         return np.zeros((0, 3), np.float32)
     return _get(pointcloud.attributes, "position", 3, n)
+
+
+def read_opacities_scales_rotations(pointcloud) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(N,) opacities, (N, 3) scales and (N, 4) rotations as stored (what framing needs to
+    tell which splats show and which way they face: no colours, no SH)."""
+    n = len(pointcloud.points)
+    attributes = pointcloud.attributes
+    if n == 0:
+        return np.zeros(0, np.float32), np.zeros((0, 3), np.float32), np.zeros((0, 4), np.float32)
+    return (np.ascontiguousarray(_get(attributes, BASE, 4, n)[:, 3]), _get(attributes, "scale", 3, n),
+            _get(attributes, "rotation", 4, n))

@@ -124,7 +124,8 @@ def test_bad_capture_and_camera_on_blend_are_one_line(tmp_path):
 def test_import_adds_a_camera_that_frames_the_capture(bpy_empty, testdata, tmp_path):
     from addon.blender.render.camera import camera_from_blender
     from addon.blender.data.capture_camera import splat_world_points
-    from addon.core.framing import robust_bounds
+    from addon.blender.data.pointcloud import read_opacities_scales_rotations
+    from addon.core.visible_bounds import visible_bounds
 
     out = tmp_path / "g.blend"
     run = _cli("import", testdata / "guitar.ply", "--blend", out, "--max-count", "3000",
@@ -135,7 +136,9 @@ def test_import_adds_a_camera_that_frames_the_capture(bpy_empty, testdata, tmp_p
     try:
         scene = bpy.context.scene
         assert scene.camera is not None and scene.camera.type == "CAMERA"
-        bounds = robust_bounds(splat_world_points([bpy.data.objects["guitar"]]))
+        guitar = bpy.data.objects["guitar"]  # turned by its axes, not scaled: scales as stored
+        opacities, scales, _ = read_opacities_scales_rotations(guitar.data)
+        bounds = visible_bounds(splat_world_points([guitar]), opacities, scales)  # the framing's box
         cam = camera_from_blender(scene, scene.camera, bpy.context.evaluated_depsgraph_get())
         u, v, depth = cam.project(np.array([bounds.centre, bounds.low, bounds.high])).T
         assert depth.min() > 0

@@ -216,3 +216,21 @@ def test_the_look_and_effects_apply_to_the_moving_splats(bpy_empty, tmp_path, ca
     assert not np.array_equal(item.splats.sh_dc, frame.splats.sh_dc)  # graded
     assert (item.splats.opacities < frame.splats.opacities).any()  # revealed in part
     assert item.opacity_scale == pytest.approx(0.7)
+
+
+def test_segment_files_import_as_one_object_that_plays_them_in_order(bpy_empty, tmp_path):
+    """Spacetime's one file per 50 frames: two segments picked together are one object;
+    frames 1-50 show the first file's splats, 51-100 the second's."""
+    bpy = bpy_empty
+    capture = spacetime_capture(800, segments=2)
+    paths = [tmp_path / "seg_0.ply", tmp_path / "seg_1.ply"]
+    write_dynamic(paths, capture)
+    assert bpy.ops.import_scene.splatline_dynamic(
+        directory=str(tmp_path), files=[{"name": p.name} for p in paths]) == {"FINISHED"}
+    obj = bpy.context.view_layer.objects.active
+    assert len(obj.data.points) == 1600 and obj.splatline.dynamic.time_end == 2.0
+    for frame, t, segment in ((20, 19 / 50, 0), (70, 69 / 50, 1)):
+        item = item_at(bpy, obj.name_full, frame)
+        want, index = _expected(capture, t)
+        assert np.all((index >= 800 * segment) & (index < 800 * (segment + 1)))
+        np.testing.assert_allclose(item.splats.positions, want.positions, rtol=1e-5, atol=2e-6)

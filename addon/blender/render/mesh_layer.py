@@ -7,8 +7,8 @@ Render > Splatline > Meshes is Drawn gets:
   marked MARK): the same surface objects, lights and light probes linked (not copied) into
   its own collections, the same camera, camera markers and world, and the engine chosen in
   Mesh Engine (Workbench, EEVEE, Cycles). Splat objects are never linked into it (Blender
-  5.3 would draw them natively; older Blenders as points), nor collection instances that
-  would bring splats in;
+  5.3 would draw them natively; older Blenders as points), nor collection instances or
+  Geometry Nodes objects that would bring splats in (their meshes then stay out too);
 - a **compositor** in the Splatline scene: each Render Layers node of the scene's own layers
   goes through an Alpha Over node whose background is a Render Layers node of the
   mesh scene (mesh_compositor.py). With no compositor of the user's, Splatline makes one
@@ -100,7 +100,43 @@ def _holds_splats(collection, depth=0) -> bool:
 
 def _instances_splats(obj, depth=0) -> bool:
     inst = obj.instance_collection if obj.instance_type == "COLLECTION" else None
-    return inst is not None and _holds_splats(inst, depth)
+    return (inst is not None and _holds_splats(inst, depth)) or _nodes_instance_splats(obj, depth)
+
+
+def _nodes_instance_splats(obj, depth=0) -> bool:
+    """A Geometry Nodes modifier of obj reads a splat object or a collection with splats
+    (Object Info, Collection Info, or the modifier's inputs): its output may instance them.
+    Splatline's engine draws those instances; the mesh layer must not draw them again."""
+    for modifier in obj.modifiers:
+        if modifier.type != "NODES" or modifier.node_group is None:
+            continue
+        inputs = [modifier[k] for k in modifier.keys() if isinstance(modifier[k], bpy.types.ID)]
+        if any(_is_splat_source(i, depth) for i in inputs + _node_ids(modifier.node_group)):
+            return True
+    return False
+
+
+def _node_ids(tree, seen=None) -> list:
+    """The objects and collections that the nodes of a tree and of its groups name."""
+    seen = set() if seen is None else seen
+    if tree.name_full in seen:
+        return []
+    seen.add(tree.name_full)
+    out = []
+    for node in tree.nodes:
+        if getattr(node, "node_tree", None) is not None:
+            out += _node_ids(node.node_tree, seen)
+        for socket in node.inputs:
+            value = getattr(socket, "default_value", None)
+            if isinstance(value, (bpy.types.Object, bpy.types.Collection)):
+                out.append(value)
+    return out
+
+
+def _is_splat_source(block, depth) -> bool:
+    if isinstance(block, bpy.types.Collection):
+        return _holds_splats(block, depth + 1)
+    return isinstance(block, bpy.types.Object) and (is_splat_object(block) or _instances_splats(block, depth + 1))
 
 
 def drawn_objects(scene) -> dict:
@@ -120,9 +156,9 @@ def drawn_objects(scene) -> dict:
         if COMPANION_MARK in obj.keys() or is_splat_object(obj):
             continue
         if (is_surface(obj) or obj.type in LIGHT_TYPES
-                or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None
-                    and not _instances_splats(obj))):
-            out[obj] = flags
+                or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None)):
+            if not _instances_splats(obj):
+                out[obj] = flags
     return out
 
 

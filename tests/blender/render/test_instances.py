@@ -109,6 +109,14 @@ def test_instance_on_points_draws_four_overlapping_copies_sorted_as_one_object(b
     # ...and not of the instances drawn one after the other (the order matters here)
     layered = sum_over([to_scene_linear(reference.render([i], camera).rgba) for i in items])
     assert psnr(layered, merged) < 50.0
+    # Meshes: the holdout walks the instances' meshes; the mesh layer leaves out an object
+    # whose nodes instance splats, which its engine would draw again (as points before 5.3)
+    from addon.blender.render.mesh_layer import drawn_objects
+
+    bpy.ops.mesh.primitive_cube_add(size=0.05, location=tuple(seen))
+    cube = bpy.context.active_object
+    assert cube in drawn_objects(scene) and host not in drawn_objects(scene)
+    bpy.data.objects.remove(cube)
     matrices = instance_matrices(bpy, obj.name_full)
     host.modifiers[0].show_render = host.modifiers[0].show_viewport = False
     real_copies(bpy, obj, matrices)

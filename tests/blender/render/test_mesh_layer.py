@@ -63,7 +63,7 @@ def guitar(bpy_empty, testdata, tmp_path):
 
 def test_set_up_without_asking(guitar):
     from addon.blender.compat import active_compositor
-    from addon.blender.data.pointcloud import is_splat_object
+    from addon.blender.data.sources import is_splat_object
     from addon.blender.render import mesh_compositor, mesh_layer
 
     bpy, scene, _hs, objects, parts = guitar

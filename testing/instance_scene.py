@@ -27,10 +27,11 @@ def collection_instance(bpy, collection, location, name="Instance"):
     return empty
 
 
-def instance_on_points(bpy, points, source, scale=1.0, name="Scatter"):
+def instance_on_points(bpy, points, source, scale=1.0, name="Scatter", as_input=False):
     """A mesh of `points` (vertices only) whose Geometry Nodes modifier puts an instance
     of `source` on each: an Object Info node (As Instance) for an object, a Collection
-    Info node for a collection; each instance scaled by `scale`."""
+    Info node for a collection; each instance scaled by `scale`. as_input: the object is
+    the modifier's input, not the node's own value."""
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata([tuple(map(float, p)) for p in points], [], [])
     host = bpy.data.objects.new(name, mesh)
@@ -52,8 +53,23 @@ def instance_on_points(bpy, points, source, scale=1.0, name="Scatter"):
     tree.links.new(info.outputs["Geometry"] if "Geometry" in info.outputs else info.outputs[0],
                    on_points.inputs["Instance"])
     tree.links.new(on_points.outputs["Instances"], group_out.inputs[0])
-    host.modifiers.new("Scatter", "NODES").node_group = tree
+    modifier = host.modifiers.new("Scatter", "NODES")
+    modifier.node_group = tree
+    if as_input:
+        socket = tree.interface.new_socket("Source", in_out="INPUT", socket_type="NodeSocketObject")
+        tree.links.new(group_in.outputs[socket.identifier], info.inputs["Object"])
+        info.inputs["Object"].default_value = None
+        set_input(modifier, socket.identifier, source)
     return host
+
+
+def set_input(modifier, identifier, value):
+    """A Geometry Nodes modifier's input: an ID property up to 5.1, properties.inputs from 5.2."""
+    interface = getattr(modifier, "properties", None)
+    if interface is not None:
+        getattr(interface.inputs, identifier).value = value
+    else:
+        modifier[identifier] = value
 
 
 def instance_matrices(bpy, name_full) -> list:

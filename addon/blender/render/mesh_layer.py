@@ -110,10 +110,22 @@ def _nodes_instance_splats(obj, depth=0) -> bool:
     for modifier in obj.modifiers:
         if modifier.type != "NODES" or modifier.node_group is None:
             continue
-        inputs = [modifier[k] for k in modifier.keys() if isinstance(modifier[k], bpy.types.ID)]
-        if any(_is_splat_source(i, depth) for i in inputs + _node_ids(modifier.node_group)):
+        if any(_is_splat_source(i, depth) for i in _input_ids(modifier) + _node_ids(modifier.node_group)):
             return True
     return False
+
+
+def _input_ids(modifier) -> list:
+    """The objects and collections given to the modifier's inputs: ID properties up to
+    5.1; from 5.2 (where the modifier has none) modifier.properties.inputs.<identifier>.value."""
+    interface = getattr(modifier, "properties", None)
+    if interface is not None:
+        inputs = interface.inputs
+        values = [getattr(getattr(inputs, k), "value", None) for k in inputs.bl_rna.properties.keys()
+                  if k not in ("rna_type", "name")]
+    else:
+        values = [modifier[k] for k in modifier.keys()]
+    return [v for v in values if isinstance(v, (bpy.types.Object, bpy.types.Collection))]
 
 
 def _node_ids(tree, seen=None) -> list:

@@ -131,3 +131,18 @@ def sum_over(frames):
     for f in frames:
         out = f + (1.0 - f[..., 3:4]) * out
     return out
+
+
+def test_mesh_layer_leaves_out_nodes_given_a_splat_object_as_input(bpy_empty, testdata):
+    """The splat object reaches the nodes through the modifier's input, not a node's value."""
+    from addon.blender.evaluate.items import collect_items
+    from addon.blender.render.mesh_layer import drawn_objects
+    from addon.core.formats import read
+
+    bpy = bpy_empty
+    obj = add_splats(bpy, "test64", read(testdata / "test64.ply"))
+    host = instance_on_points(bpy, [(0, 0, 0), (1, 0, 0)], obj, as_input=True)
+    scene = setup_render(bpy, W, H)
+    bpy.context.view_layer.update()
+    assert len(collect_items(bpy.context.evaluated_depsgraph_get())) == 3  # the object, 2 instances
+    assert host not in drawn_objects(scene)

@@ -1,0 +1,139 @@
+"""Instances of one splat object against one object of all their splats (issue 45).
+
+    python -m bench.instances_bench [N] [count] [degree=D]      (default 16 50000, degree 1)
+
+One generated source of `count` splats drawn N times, its instances on a grid that
+overlaps (so the global sort interleaves them), against the same splats merged into a
+single object of N x count (what N real copies cost at best: one item, one upload). Both
+go through the renderers as Splatline hands them over: evaluate.items.collect_items gives
+the instances one shared SplatSet and key (RenderItem.instance tells them apart).
+
+Rows, per renderer:
+  offscreen  the GL renderer of F12, `blender -b` and the CLI (addon/gl): median ms of
+             RUNS frames after a warm-up (each frame preprocesses and sorts every splat);
+             `uploaded` the splat bytes sent to the GPU (first frame), `frame arrays` the
+             per-drawn-splat arrays the preprocess and sort keep (records, depths, keys,
+             order: what sorting needs, the same for instances and copies)
+  viewport   ViewportRenderer (Blender's gpu module, real bpy, background GPU): median ms
+             of prepare + draw with the camera orbiting (a sort every frame); `data` the
+             data textures (pos, shape, SH), `per drawn` the order and record textures
+Ratios are instances / merged, in the same run. On Mesa llvmpipe (this machine) every
+GPU stage runs on the 2 CPU cores.
+Goal: instances cost about as much as the merged object, or less; their data bytes are
+one source's.
+"""
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from addon.core.camera import look_at, simple_camera
+from addon.core.edit import merge
+from addon.core.scene import RenderItem
+from addon.core.splats import ARRAYS
+from testing.synth import random_splats
+
+RUNS = 5
+SIZE = (256, 192)
+
+
+def scene(n: int, count: int, degree: int):
+    """(instances, merged item, cameras orbiting the grid)."""
+    source = random_splats(count, degree, seed=11, spread=0.5, log_scale=(-5.0, -2.5), opacity=(0.2, 0.9))
+    side = int(np.ceil(np.sqrt(n)))
+    item = RenderItem(source, key=("source", 0), base_key=("source", 0), base_fields=frozenset(ARRAYS))
+    instances, moved = [], []
+    for k in range(n):
+        world = np.eye(4)
+        world[:3, 3] = (0.8 * (k % side), 0.0, 0.8 * (k // side))  # spread 0.5: neighbours overlap
+        instances.append(replace(item, world=world, instance=() if k == 0 else ("grid", k)))
+        moved.append(replace(source, positions=(source.positions + world[:3, 3]).astype(np.float32)))
+    merged = RenderItem(merge(moved), key=("merged", 0), base_key=("merged", 0), base_fields=frozenset(ARRAYS))
+    centre = np.array([0.4 * (side - 1), 0.0, 0.4 * (side - 1)])
+    reach = 0.8 * side + 1.5
+    cameras = []
+    for k in range(RUNS + 1):
+        a = -np.pi / 2 + 0.05 * k
+        eye = centre + reach * np.array([np.cos(a), np.sin(a), 0.3])
+        cameras.append(simple_camera(*SIZE, 50.0, look_at(eye, centre), near=0.05, far=10 * reach))
+    return instances, merged, cameras
+
+
+def offscreen_row(items, cameras) -> dict:
+    from addon.gl import OffscreenRenderer
+    from addon.gl.frame import FRAME_ARRAYS
+
+    with OffscreenRenderer(depth_pass=False) as r:
+        r.render(items, cameras[0])
+        uploaded = r.stats["bytes_uploaded"]
+        times = []
+        for camera in cameras[1:]:
+            start = time.perf_counter()
+            r.render(items, camera)
+            times.append(time.perf_counter() - start)
+        capacity = r._state.capacity if r.uses_compute else 0
+        compute = r.uses_compute
+    return {"ms": 1e3 * statistics.median(times), "uploaded": uploaded,
+            "frame arrays": capacity * sum(FRAME_ARRAYS.values()), "compute": compute,
+            "again": r.stats["bytes_uploaded"] - uploaded}
+
+
+def viewport_row(items, cameras) -> dict:
+    from addon.blender.viewport import ViewportRenderer
+    from addon.blender.viewport.gpu_draw import texture_bytes
+    from addon.blender.viewport.offscreen import draw_camera
+
+    renderer = ViewportRenderer()
+    draw_camera(items, cameras[0], renderer=renderer)
+    times = []
+    for camera in cameras[1:]:
+        start = time.perf_counter()
+        draw_camera(items, camera, renderer=renderer)
+        times.append(time.perf_counter() - start)
+    gpu = renderer.gpu
+    data = sum(texture_bytes(gpu.textures[t]) for t in ("pos", "shape", "sh") if t in gpu.textures)
+    out = {"ms": 1e3 * statistics.median(times), "data": data, "gpu": renderer.stats.gpu_bytes,
+           "per drawn": renderer.stats.gpu_bytes - data}
+    renderer.close()
+    return out
+
+
+def _mb(b) -> str:
+    return f"{b / 1e6:9.1f} MB"
+
+
+def main(argv) -> None:
+    args = [a for a in argv if "=" not in a]
+    opts = dict(a.split("=", 1) for a in argv if "=" in a)
+    n = int(args[0]) if args else 16
+    count = int(args[1]) if len(args) > 1 else 50_000
+    degree = int(opts.get("degree", 1))
+    instances, merged, cameras = scene(n, count, degree)
+    print(f"{n} instances x {count:,} splats (SH degree {degree}) = {n * count:,} drawn, {SIZE[0]}x{SIZE[1]}")
+    rows = {}
+    for name, items in (("instances", instances), ("merged", [merged])):
+        rows[("offscreen", name)] = offscreen_row(items, cameras)
+    try:
+        from testing.headless import ensure_gpu
+
+        ensure_gpu()
+        for name, items in (("instances", instances), ("merged", [merged])):
+            rows[("viewport", name)] = viewport_row(items, cameras)
+    except ImportError as exc:  # no bpy in this Python
+        print(f"(viewport rows skipped: {exc})")
+    for (renderer, name), row in rows.items():
+        cells = "  ".join(f"{k} {_mb(v) if isinstance(v, int) and k != 'compute' else v}" if k != "ms"
+                          else f"{v:8.1f} ms" for k, v in row.items())
+        print(f"{renderer:10s} {name:10s} {cells}")
+    for renderer in ("offscreen", "viewport"):
+        if (renderer, "merged") in rows:
+            a, b = rows[(renderer, "instances")], rows[(renderer, "merged")]
+            print(f"{renderer:10s} instances / merged: time {a['ms'] / b['ms']:.2f}x")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

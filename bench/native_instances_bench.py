@@ -14,6 +14,7 @@ through bpy.ops.render.render; without native splats (before 5.3) it says so and
 """
 from __future__ import annotations
 
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -23,6 +24,7 @@ import numpy as np
 ENGINES = {"WORKBENCH": "BLENDER_WORKBENCH", "EEVEE": "BLENDER_EEVEE", "CYCLES": "CYCLES",
            "SPLATLINE": "SPLATLINE"}
 W, H = 160, 96
+KINDS = ("alone", "collection", "nodes")
 
 
 def _scene(bpy, testdata, kind):
@@ -31,6 +33,10 @@ def _scene(bpy, testdata, kind):
     from testing.instance_scene import collection_instance, in_collection, instance_on_points
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
+    if not hasattr(bpy.types.Object, "splatline"):
+        from addon import register
+
+        register()
     bpy.ops.wm.ply_import(filepath=str(testdata / "guitar.ply"))
     obj = bpy.context.selected_objects[0]
     obj.rotation_euler = (-np.pi / 2, 0.0, 0.0)  # the file's RDF axes, up is -y
@@ -48,7 +54,7 @@ def _scene(bpy, testdata, kind):
         # an instance holds the object's transform too (Object Info, As Instance, Original)
         instance_on_points(bpy, offsets, obj)
         places += [centre + np.array(o) for o in offsets]
-    add_camera(bpy, location=tuple(centre + (0.0, -3.2 * size, 0.0)), target=tuple(centre))
+    add_camera(bpy, location=tuple(centre + (0.0, -4.5 * size, 0.0)), target=tuple(centre))
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = W, H, 100
     scene.render.film_transparent = True
@@ -60,13 +66,15 @@ def _render(bpy, scene, engine, out: Path):
     if engine == "CYCLES":
         scene.cycles.samples = 4
         scene.cycles.device = "CPU"
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.filepath = str(out)
-    bpy.ops.render.render(write_still=True)
+    from addon.blender.compat import set_file_format
     from testing.engine_scene import read_exr_parts
 
-    parts = read_exr_parts(out.with_suffix(".exr"))
-    return next(v for k, v in parts.items() if k.endswith("Combined"))
+    # a one-layer EXR: with the tests' multilayer EXR and Z pass EEVEE 5.3.0 crashed here (SIGSEGV)
+    set_file_format(scene.render.image_settings, "OPEN_EXR")
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = str(out)
+    bpy.ops.render.render(write_still=True)
+    return next(iter(read_exr_parts(out.with_suffix(".exr")).values()))
 
 
 def _covered_places(scene, rgba, places) -> int:
@@ -82,21 +90,34 @@ def _covered_places(scene, rgba, places) -> int:
     return hit
 
 
-def main(_argv) -> None:
+def main(argv) -> None:
     import bpy
 
     from addon import register
     from addon.blender.data import native
+    from testing.blender_packages import use_bundled_packages
     from testing.paths import SHARED_TESTDATA
 
+    use_bundled_packages()  # OpenImageIO, to read the EXRs
     register()
     if not native.has_native_splats():
         print(f"Blender {bpy.app.version_string}: no native splats (5.3+): nothing to measure")
         return
-    print(f"Blender {bpy.app.version_string}: guitar.ply (wm.ply_import) and its instances, {W}x{H}")
+    if not argv:
+        print(f"Blender {bpy.app.version_string}: guitar.ply (wm.ply_import) and its instances, {W}x{H}")
+    kinds = [a for a in argv if a in KINDS] or KINDS
+    engines = [a for a in argv if a in ENGINES] or list(ENGINES)
+    if len(kinds) * len(engines) > 1:  # one process a render: a second one may crash 5.3.0
+        for kind in kinds:
+            for engine in engines:
+                run = subprocess.run([sys.executable, "-m", "bench.native_instances_bench", kind, engine],
+                                     capture_output=True, text=True)
+                rows = [line for line in run.stdout.splitlines() if line.startswith(kind)]
+                print(rows[0] if rows else f"{kind:10s} {engine:9s} failed: exit status {run.returncode}")
+        return
     with tempfile.TemporaryDirectory() as tmp:
-        for kind in ("alone", "collection", "nodes"):
-            for engine in ENGINES:
+        for kind in kinds:
+            for engine in engines:
                 scene, places = _scene(bpy, SHARED_TESTDATA, kind)
                 rgba = _render(bpy, scene, engine, Path(tmp) / f"{kind}_{engine}")
                 covered = int((rgba[..., 3] > 0.5).sum())

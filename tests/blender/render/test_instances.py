@@ -146,3 +146,23 @@ def test_mesh_layer_leaves_out_nodes_given_a_splat_object_as_input(bpy_empty, te
     bpy.context.view_layer.update()
     assert len(collect_items(bpy.context.evaluated_depsgraph_get())) == 3  # the object, 2 instances
     assert host not in drawn_objects(scene)
+
+
+def test_vertex_instancing_places_a_child_on_each_vertex(bpy_empty, testdata):
+    from addon.blender.evaluate.items import collect_items
+    from addon.core.formats import read
+
+    bpy = bpy_empty
+    obj = add_splats(bpy, "test64", read(testdata / "test64.ply"))
+    mesh = bpy.data.meshes.new("verts")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 2, 0)], [], [])
+    parent = bpy.data.objects.new("Verts", mesh)
+    bpy.context.scene.collection.objects.link(parent)
+    parent.location = (0.0, 0.0, 5.0)
+    parent.instance_type = "VERTS"
+    obj.parent = parent
+    bpy.context.view_layer.update()
+    placed = {i.instance: tuple(np.round(i.world[:3, 3], 6)) for i in collect_items(bpy.context.evaluated_depsgraph_get())
+              if i.instance}
+    assert sorted(placed.values()) == [(0.0, 0.0, 5.0), (0.0, 2.0, 5.0), (1.0, 0.0, 5.0)]
+    assert {path[0] for path in placed} == {"Verts"}

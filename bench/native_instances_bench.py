@@ -45,15 +45,18 @@ def _scene(bpy, testdata, kind):
     p = read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
     lo, hi = np.percentile(p, [2, 98], axis=0)
     centre, size = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
-    places = [centre]
     if kind == "collection":
         collection_instance(bpy, in_collection(bpy, obj), (1.2 * size, 0.0, 0.0))
-        places.append(centre + (1.2 * size, 0.0, 0.0))
     elif kind == "nodes":
+        # Object Info (Original) instances the object's local splats: turned as the object is
         offsets = [(1.2 * size * k, 0.0, 0.0) for k in (-1, 1)] + [(0.0, 0.0, 0.8 * size), (0.0, 0.0, -0.8 * size)]
-        # an instance holds the object's transform too (Object Info, As Instance, Original)
-        instance_on_points(bpy, offsets, obj)
-        places += [centre + np.array(o) for o in offsets]
+        host = instance_on_points(bpy, offsets, obj)
+        host.rotation_euler = obj.rotation_euler
+    bpy.context.view_layer.update()
+    local = np.linalg.inv(world)[:3, :3] @ centre + np.linalg.inv(world)[:3, 3]
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    places = [(np.array(i.matrix_world) @ np.append(local, 1.0))[:3] for i in depsgraph.object_instances
+              if i.object.original == obj]
     add_camera(bpy, location=tuple(centre + (0.0, -4.5 * size, 0.0)), target=tuple(centre))
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = W, H, 100

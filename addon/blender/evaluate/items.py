@@ -25,6 +25,7 @@ from ...core.effects.recycle import BUFFERS
 from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import ARRAYS
 from . import effect_params
+from .instancers import may_instance_splats
 from ..registration import app_handlers
 from ..data.source_kind import SourceFrame
 from ..data.sources import is_splat_object, source_of
@@ -58,7 +59,12 @@ def splat_instances(depsgraph):
     """(evaluated object, (4, 4) world matrix, instance path) of every splat object the
     depsgraph draws: objects as themselves, and their collection, Geometry Nodes and
     vertex/face instances. The object is valid only until the next item is asked for
-    (Blender's instance iterator): evaluate it before."""
+    (Blender's instance iterator): evaluate it before. Where no object may instance splats
+    (instancers.py), the objects alone: walking the instances costs microseconds each."""
+    if not may_instance_splats(depsgraph):
+        for obj in splat_objects(depsgraph):
+            yield obj, np.array(obj.matrix_world, np.float64), ()
+        return
     for instance in depsgraph.object_instances:
         obj = instance.object
         if instance.show_self and is_splat_object(obj):

@@ -35,6 +35,7 @@ from ..props import render as render_props
 from ..data.pointcloud import COMPANION_MARK
 from ..data.sources import is_splat_object
 from ..evaluate.holdout_geometry import is_surface
+from ..evaluate.instancers import instances_splats
 from . import mesh_compositor
 
 ENGINE = "SPLATLINE"
@@ -90,67 +91,6 @@ def _collection_objects(collection, out):
         _collection_objects(child, out)
 
 
-def _holds_splats(collection, depth=0) -> bool:
-    if depth > 32:
-        return True
-    if any(is_splat_object(o) or _instances_splats(o, depth + 1) for o in collection.all_objects):
-        return True
-    return False
-
-
-def _instances_splats(obj, depth=0) -> bool:
-    inst = obj.instance_collection if obj.instance_type == "COLLECTION" else None
-    return (inst is not None and _holds_splats(inst, depth)) or _nodes_instance_splats(obj, depth)
-
-
-def _nodes_instance_splats(obj, depth=0) -> bool:
-    """A Geometry Nodes modifier of obj reads a splat object or a collection with splats
-    (Object Info, Collection Info, or the modifier's inputs): its output may instance them.
-    Splatline's engine draws those instances; the mesh layer must not draw them again."""
-    for modifier in obj.modifiers:
-        if modifier.type != "NODES" or modifier.node_group is None:
-            continue
-        if any(_is_splat_source(i, depth) for i in _input_ids(modifier) + _node_ids(modifier.node_group)):
-            return True
-    return False
-
-
-def _input_ids(modifier) -> list:
-    """The objects and collections given to the modifier's inputs: ID properties up to
-    5.1; from 5.2 (where the modifier has none) modifier.properties.inputs.<identifier>.value."""
-    interface = getattr(modifier, "properties", None)
-    if interface is not None:
-        inputs = interface.inputs
-        values = [getattr(getattr(inputs, k), "value", None) for k in inputs.bl_rna.properties.keys()
-                  if k not in ("rna_type", "name")]
-    else:
-        values = [modifier[k] for k in modifier.keys()]
-    return [v for v in values if isinstance(v, (bpy.types.Object, bpy.types.Collection))]
-
-
-def _node_ids(tree, seen=None) -> list:
-    """The objects and collections that the nodes of a tree and of its groups name."""
-    seen = set() if seen is None else seen
-    if tree.name_full in seen:
-        return []
-    seen.add(tree.name_full)
-    out = []
-    for node in tree.nodes:
-        if getattr(node, "node_tree", None) is not None:
-            out += _node_ids(node.node_tree, seen)
-        for socket in node.inputs:
-            value = getattr(socket, "default_value", None)
-            if isinstance(value, (bpy.types.Object, bpy.types.Collection)):
-                out.append(value)
-    return out
-
-
-def _is_splat_source(block, depth) -> bool:
-    if isinstance(block, bpy.types.Collection):
-        return _holds_splats(block, depth + 1)
-    return isinstance(block, bpy.types.Object) and (is_splat_object(block) or _instances_splats(block, depth + 1))
-
-
 def drawn_objects(scene) -> dict:
     """{object: (holdout, indirect_only)} of what the mesh layer draws: surfaces, lights and
     light probes, and collection instances without splats in them, in the render-enabled
@@ -169,7 +109,7 @@ def drawn_objects(scene) -> dict:
             continue
         if (is_surface(obj) or obj.type in LIGHT_TYPES
                 or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None)):
-            if not _instances_splats(obj):
+            if not instances_splats(obj):
                 out[obj] = flags
     return out
 

@@ -15,6 +15,7 @@ import numpy as np
 import bpy
 
 from ..evaluate import items as evaluate
+from ..evaluate.instancers import may_instance_splats
 from ..data import native
 from ..data.sources import is_splat_object, source_of
 from .effect_rows import on_gpu
@@ -99,6 +100,22 @@ def by_full_name() -> dict:
     return {obj.name_full: obj for obj in bpy.data.objects}
 
 
+def _drawn(depsgraph):
+    """(evaluated object, world, instance path, the original whose visibility decides) of
+    what the depsgraph draws: its objects, and their instances where some object may
+    instance splats (evaluate/instancers.py: walking instances costs microseconds each)."""
+    if not may_instance_splats(depsgraph):
+        for obj in depsgraph.objects:
+            if obj.type == "POINTCLOUD":
+                yield obj, np.array(obj.matrix_world, np.float64), (), obj.original
+        return
+    for instance in depsgraph.object_instances:
+        if instance.show_self:
+            obj = instance.object
+            owner = instance.parent.original if instance.is_instance else obj.original
+            yield obj, np.array(instance.matrix_world, np.float64), evaluate.instance_path(instance), owner
+
+
 class SceneItems:
     """Per-object item cache for the draw handler."""
 
@@ -175,18 +192,13 @@ class SceneItems:
         is read through its source's effect). An instance is shown where its instancer is."""
         depsgraph = context.evaluated_depsgraph_get()
         view_layer, space = context.view_layer, context.space_data
-        for instance in depsgraph.object_instances:
-            obj_eval = instance.object
-            if obj_eval.type != "POINTCLOUD" or not instance.show_self or not is_splat_object(obj_eval) \
-                    or not evaluate.shown(obj_eval):
+        for obj_eval, world, path, owner in _drawn(depsgraph):
+            if obj_eval.type != "POINTCLOUD" or not is_splat_object(obj_eval) or not evaluate.shown(obj_eval):
                 continue
             if native.drawn_natively(obj_eval.original.data):  # Blender draws it: never twice
                 continue
-            original = obj_eval.original
-            owner = instance.parent.original if instance.is_instance else original
             if owner.visible_get(view_layer=view_layer, viewport=space):
-                yield (obj_eval, original, depsgraph, np.array(instance.matrix_world, np.float64),
-                       evaluate.instance_path(instance))
+                yield obj_eval, obj_eval.original, depsgraph, world, path
 
     def collect(self, context) -> tuple[list, list]:
         """The items and display options of what this viewport shows: each source read once

@@ -10,7 +10,8 @@ the instances one shared SplatSet and key (RenderItem.instance tells them apart)
 
 Rows, per renderer:
   offscreen  the GL renderer of F12, `blender -b` and the CLI (addon/gl): median ms of
-             RUNS frames after a warm-up (each frame preprocesses and sorts every splat);
+             RUNS frames after a warm-up (each frame preprocesses and sorts every splat),
+             the two cases' frames interleaved (a shared machine's load weighs on both);
              `uploaded` the splat bytes sent to the GPU (first frame), `frame arrays` the
              per-drawn-splat arrays the preprocess and sort keep (records, depths, keys,
              order: what sorting needs, the same for instances and copies)
@@ -37,7 +38,7 @@ from addon.core.scene import RenderItem
 from addon.core.splats import ARRAYS
 from testing.synth import random_splats
 
-RUNS = 5
+RUNS = 7
 SIZE = (256, 192)
 
 
@@ -63,43 +64,55 @@ def scene(n: int, count: int, degree: int):
     return instances, merged, cameras
 
 
-def offscreen_row(items, cameras) -> dict:
+def _alternate(cases: dict, render, cameras) -> dict:
+    """{name: median seconds}: the cases' frames interleaved camera by camera, so a load
+    that comes and goes on a shared machine weighs on each alike."""
+    times = {name: [] for name in cases}
+    for camera in cameras[1:]:
+        for name, state in cases.items():
+            start = time.perf_counter()
+            render(state, camera)
+            times[name].append(time.perf_counter() - start)
+    return {name: statistics.median(t) for name, t in times.items()}
+
+
+def offscreen_rows(cases: dict, cameras) -> dict:
     from addon.gl import OffscreenRenderer
     from addon.gl.frame import FRAME_ARRAYS
 
-    with OffscreenRenderer(depth_pass=False) as r:
+    rows, states = {}, {}
+    for name, items in cases.items():
+        r = OffscreenRenderer(depth_pass=False)
         r.render(items, cameras[0])
-        uploaded = r.stats["bytes_uploaded"]
-        times = []
-        for camera in cameras[1:]:
-            start = time.perf_counter()
-            r.render(items, camera)
-            times.append(time.perf_counter() - start)
         capacity = r._state.capacity if r.uses_compute else 0
-        compute = r.uses_compute
-    return {"ms": 1e3 * statistics.median(times), "uploaded": uploaded,
-            "frame arrays": capacity * sum(FRAME_ARRAYS.values()), "compute": compute,
-            "again": r.stats["bytes_uploaded"] - uploaded}
+        rows[name] = {"uploaded": r.stats["bytes_uploaded"],
+                      "frame arrays": capacity * sum(FRAME_ARRAYS.values())}
+        states[name] = (r, items)
+    for name, seconds in _alternate(states, lambda st, c: st[0].render(st[1], c), cameras).items():
+        rows[name] = {"ms": 1e3 * seconds, **rows[name],
+                      "again": states[name][0].stats["bytes_uploaded"] - rows[name]["uploaded"]}
+    for r, _ in states.values():
+        r.close()
+    return rows
 
 
-def viewport_row(items, cameras) -> dict:
+def viewport_rows(cases: dict, cameras) -> dict:
     from addon.blender.viewport import ViewportRenderer
     from addon.blender.viewport.gpu_draw import texture_bytes
     from addon.blender.viewport.offscreen import draw_camera
 
-    renderer = ViewportRenderer()
-    draw_camera(items, cameras[0], renderer=renderer)
-    times = []
-    for camera in cameras[1:]:
-        start = time.perf_counter()
-        draw_camera(items, camera, renderer=renderer)
-        times.append(time.perf_counter() - start)
-    gpu = renderer.gpu
-    data = sum(texture_bytes(gpu.textures[t]) for t in ("pos", "shape", "sh") if t in gpu.textures)
-    out = {"ms": 1e3 * statistics.median(times), "data": data, "gpu": renderer.stats.gpu_bytes,
-           "per drawn": renderer.stats.gpu_bytes - data}
-    renderer.close()
-    return out
+    states = {name: (ViewportRenderer(), items) for name, items in cases.items()}
+    for renderer, items in states.values():
+        draw_camera(items, cameras[0], renderer=renderer)
+    seconds = _alternate(states, lambda st, c: draw_camera(st[1], c, renderer=st[0]), cameras)
+    rows = {}
+    for name, (renderer, _) in states.items():
+        gpu = renderer.gpu
+        data = sum(texture_bytes(gpu.textures[t]) for t in ("pos", "shape", "sh") if t in gpu.textures)
+        rows[name] = {"ms": 1e3 * seconds[name], "data": data, "gpu": renderer.stats.gpu_bytes,
+                      "per drawn": renderer.stats.gpu_bytes - data}
+        renderer.close()
+    return rows
 
 
 def _mb(b) -> str:
@@ -114,20 +127,17 @@ def main(argv) -> None:
     degree = int(opts.get("degree", 1))
     instances, merged, cameras = scene(n, count, degree)
     print(f"{n} instances x {count:,} splats (SH degree {degree}) = {n * count:,} drawn, {SIZE[0]}x{SIZE[1]}")
-    rows = {}
-    for name, items in (("instances", instances), ("merged", [merged])):
-        rows[("offscreen", name)] = offscreen_row(items, cameras)
+    cases = {"instances": instances, "merged": [merged]}
+    rows = {("offscreen", k): v for k, v in offscreen_rows(cases, cameras).items()}
     try:
         from testing.headless import ensure_gpu
 
         ensure_gpu()
-        for name, items in (("instances", instances), ("merged", [merged])):
-            rows[("viewport", name)] = viewport_row(items, cameras)
+        rows.update({("viewport", k): v for k, v in viewport_rows(cases, cameras).items()})
     except ImportError as exc:  # no bpy in this Python
         print(f"(viewport rows skipped: {exc})")
     for (renderer, name), row in rows.items():
-        cells = "  ".join(f"{k} {_mb(v) if isinstance(v, int) and k != 'compute' else v}" if k != "ms"
-                          else f"{v:8.1f} ms" for k, v in row.items())
+        cells = "  ".join(f"{k} {_mb(v)}" if k != "ms" else f"{v:8.1f} ms" for k, v in row.items())
         print(f"{renderer:10s} {name:10s} {cells}")
     for renderer in ("offscreen", "viewport"):
         if (renderer, "merged") in rows:

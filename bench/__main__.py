@@ -9,7 +9,7 @@ TABLES = (
     "effects_bench", "sequence_bench", "engine_bench", "engine_paths_bench", "final_frame_bench",
     "cli_frame_bench", "colour_profile_bench", "fragment_census", "tile_blend_probe", "cell_stop_estimate",
     "native_engines_bench", "handoff_bench", "holdout_bench", "mesh_layer_bench", "film_convert_bench",
-    "render_result_fill_bench", "frame_digests",
+    "render_result_fill_bench", "frame_digests", "instances_bench", "native_instances_bench",
 )
 
 

@@ -1,6 +1,7 @@
 """Instances of one splat object against one object of all their splats (issue 45).
 
-    python -m bench.instances_bench [N] [count] [degree=D]      (default 16 50000, degree 1)
+    python -m bench.instances_bench [N] [count] [degree=D] [frames=F]   (default 16 50000 1 7)
+    python -m bench.instances_bench 100 100000 frames=1    (the memory row: 10M drawn)
 
 One generated source of `count` splats drawn N times, its instances on a grid that
 overlaps (so the global sort interleaves them), against the same splats merged into a
@@ -42,8 +43,8 @@ RUNS = 7
 SIZE = (256, 192)
 
 
-def scene(n: int, count: int, degree: int):
-    """(instances, merged item, cameras orbiting the grid)."""
+def scene(n: int, count: int, degree: int, runs: int = RUNS):
+    """(instances, merged item, cameras orbiting the grid: a warm-up and `runs` more)."""
     source = random_splats(count, degree, seed=11, spread=0.5, log_scale=(-5.0, -2.5), opacity=(0.2, 0.9))
     side = int(np.ceil(np.sqrt(n)))
     item = RenderItem(source, key=("source", 0), base_key=("source", 0), base_fields=frozenset(ARRAYS))
@@ -57,7 +58,7 @@ def scene(n: int, count: int, degree: int):
     centre = np.array([0.4 * (side - 1), 0.0, 0.4 * (side - 1)])
     reach = 0.8 * side + 1.5
     cameras = []
-    for k in range(RUNS + 1):
+    for k in range(runs + 1):
         a = -np.pi / 2 + 0.05 * k
         eye = centre + reach * np.array([np.cos(a), np.sin(a), 0.3])
         cameras.append(simple_camera(*SIZE, 50.0, look_at(eye, centre), near=0.05, far=10 * reach))
@@ -119,13 +120,13 @@ def _mb(b) -> str:
     return f"{b / 1e6:9.1f} MB"
 
 
-def main(argv) -> None:
+def main(argv=()) -> None:
     args = [a for a in argv if "=" not in a]
     opts = dict(a.split("=", 1) for a in argv if "=" in a)
     n = int(args[0]) if args else 16
     count = int(args[1]) if len(args) > 1 else 50_000
     degree = int(opts.get("degree", 1))
-    instances, merged, cameras = scene(n, count, degree)
+    instances, merged, cameras = scene(n, count, degree, int(opts.get("frames", RUNS)))
     print(f"{n} instances x {count:,} splats (SH degree {degree}) = {n * count:,} drawn, {SIZE[0]}x{SIZE[1]}")
     cases = {"instances": instances, "merged": [merged]}
     rows = {("offscreen", k): v for k, v in offscreen_rows(cases, cameras).items()}

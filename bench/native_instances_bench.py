@@ -93,7 +93,7 @@ def _covered_places(scene, rgba, places) -> int:
     return hit
 
 
-def main(argv) -> None:
+def main(argv=()) -> None:
     import bpy
 
     from addon import register

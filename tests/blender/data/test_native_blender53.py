@@ -19,7 +19,7 @@ def _blender_import(bpy, path):
 
 def test_blenders_ply_import_is_a_splat_object_the_overlay_leaves_alone(native_bpy, testdata):
     from addon.blender.data import native
-    from addon.blender.data.pointcloud import is_splat_object
+    from addon.blender.data.sources import is_splat_object
     from addon.blender.viewport.scene_items import SceneItems
 
     bpy = native_bpy
@@ -54,7 +54,8 @@ def test_blenders_ply_import_reads_as_splatlines_own(native_bpy, testdata):
 
 
 def test_blenders_spz_import_is_a_splat_object(native_bpy, testdata):
-    from addon.blender.data.pointcloud import is_splat_object, read_positions
+    from addon.blender.data.pointcloud import read_positions
+    from addon.blender.data.sources import is_splat_object
     from addon.core import formats
 
     bpy = native_bpy

@@ -23,7 +23,7 @@ def _band4(n, seed=3):
 
 
 def test_native_pointcloud_reads_and_renders_like_a_splatline_import(bpy_empty):
-    from addon.blender.data.pointcloud import is_splat_object
+    from addon.blender.data.sources import is_splat_object
     from addon.blender.data.pointcloud import new_pointcloud_object
     from addon.core import reference
 

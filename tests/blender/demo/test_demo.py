@@ -69,7 +69,7 @@ def test_prints_paths_and_time_per_frame(demo):
 
 
 def test_blend_reopens_with_objects_effects_and_keyframes(demo, bpy_empty):
-    from addon.blender.data.pointcloud import is_splat_object
+    from addon.blender.data.sources import is_splat_object
 
     bpy = bpy_empty
     out, _ = demo

@@ -166,3 +166,25 @@ def test_vertex_instancing_places_a_child_on_each_vertex(bpy_empty, testdata):
               if i.instance}
     assert sorted(placed.values()) == [(0.0, 0.0, 5.0), (0.0, 2.0, 5.0), (1.0, 0.0, 5.0)]
     assert {path[0] for path in placed} == {"Verts"}
+
+
+def test_command_line_renders_the_instances_as_f12_does(bpy_empty, testdata, tmp_path):
+    """`python -m addon render` of a .blend with a collection instance: the frame F12 gives."""
+    from addon.core.formats import read
+    from testing.cli_runs import render_all
+
+    bpy = bpy_empty
+    capture = read(testdata / "test64.ply")
+    obj = add_splats(bpy, "test64", capture)
+    centre = capture.positions.astype(np.float64).mean(0)
+    collection_instance(bpy, in_collection(bpy, obj), (0.3, 0.0, 0.0))
+    add_camera(bpy, location=tuple(centre + (0.15, -1.2, 0.2)), target=tuple(centre + (0.15, 0.0, 0.0)))
+    scene = setup_render(bpy, W, H)
+    f12 = _render(bpy, scene, tmp_path / "f12")
+    alone = (f12[:, : W // 2, 3] > 0.5).sum(), (f12[:, W // 2:, 3] > 0.5).sum()
+    assert min(alone) > 20  # the object left of the middle, its instance right of it
+    path = tmp_path / "scene.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    render_all([(path, "--out", tmp_path / "cli", "--format", "EXR", "--frames", "1")])
+    cli = read_exr_parts(tmp_path / "cli" / "frame_0001.exr")["ViewLayer.Combined"]
+    assert psnr(cli, f12) >= 60.0

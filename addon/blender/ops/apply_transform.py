@@ -41,6 +41,10 @@ def apply_rotation_scale(obj) -> None:
     splats = bake(splats_from_pointcloud(obj.data), linear)
     overwrite_pointcloud(obj.data, splats)
     obj.matrix_basis = Matrix.Translation(obj.matrix_basis.translation)
+    turn = np.eye(4)
+    turn[:3, :3] = linear  # what the object's matrix lost: its children keep their place,
+    for child in obj.children:  # as with Blender's own Apply
+        child.matrix_parent_inverse = Matrix(turn.tolist()) @ child.matrix_parent_inverse
     # the data is now in the frame the object showed it in: Blender's (export reframes it)
     obj[AXES_PROP] = "RFU"
 

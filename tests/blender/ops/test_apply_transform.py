@@ -66,11 +66,19 @@ def test_degree_3_capture_keeps_its_frame(bpy_empty, testdata, tmp_path):
 
     bpy = bpy_empty
     obj = import_file(bpy.context, testdata / "test64.ply")
+    child = bpy.data.objects.new("child", None)
+    bpy.context.scene.collection.objects.link(child)
+    child.parent, child.location = obj, (0.2, 0.1, 0.0)
     from addon.blender.data.pointcloud import splats_from_pointcloud
 
     assert splats_from_pointcloud(obj.data).sh_degree == 3
+    obj.rotation_euler, obj.scale = (-math.pi / 2 + 0.4, 0.3, 1.1), (1.6, 1.6, 1.6)
+    bpy.context.view_layer.update()
+    child_world = np.array(child.matrix_world)
     _round_trip(bpy, obj, tmp_path, (-math.pi / 2 + 0.4, 0.3, 1.1), (1.6, 1.6, 1.6))
     assert obj["splatline_axes"] == "RFU"
+    # the location set in _round_trip moved the child too: compare without it
+    np.testing.assert_allclose(np.array(child.matrix_world)[:3, :3], child_world[:3, :3], atol=1e-6)
 
 
 def test_guitar_with_its_axes_and_a_non_uniform_scale(bpy_empty, testdata, tmp_path):

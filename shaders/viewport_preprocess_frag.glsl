@@ -12,12 +12,13 @@
 // opacity scale, SH degree; eye hi + mode; eye lo + sh_only; the 3x4 colour matrix;
 // orthographic view direction + the object's first splat index; the object's deferred
 // effects (first texel, count, whether they read rest_tex), whose rows follow the objects',
-// and a deferred morph's amount (0: none; the target's data in the morph_* textures). A
+// and a deferred morph's amount (0: none; the target's data in the morph_* textures); the
+// object's first splat in the data textures (instances of one object share its data). A
 // deferred morph or displace moves pos_tex's centre (then its source end's, or the stack's
 // input) itself: towards the target's centre, or by the displace's noise layers.
 // Everything is camera-relative: t = cam_from_local * (p - eye), eye split hi + lo.
 
-const int OBJECT_TEXELS = 10;
+const int OBJECT_TEXELS = 11;
 
 vec4 object_texel(int object, int k)
 {
@@ -128,12 +129,14 @@ void main()
     rec_color = vec4(0.0);
     int i = int(gl_FragCoord.y) * sizes.x + int(gl_FragCoord.x);
     if (i >= sizes.w) return;
-    int splat = int(fetch(order_tex, i).x);
-    int obj = object_of(splat);
+    int drawn = int(fetch(order_tex, i).x);
+    int obj = object_of(drawn);
     vec4 o0 = object_texel(obj, 0), o1 = object_texel(obj, 1), o2 = object_texel(obj, 2);
     vec4 eye_hi = object_texel(obj, 3), eye_lo = object_texel(obj, 4);
     vec4 c0 = object_texel(obj, 5), c1 = object_texel(obj, 6), c2 = object_texel(obj, 7);
     vec4 ortho_dir = object_texel(obj, 8);
+    int local = drawn - int(ortho_dir.w);
+    int splat = int(object_texel(obj, 10).x) + local;  // its data's, shared by instances
     mat3 cam_from_local = mat3(o0.xyz, o1.xyz, o2.xyz);
     float splat_scale = o0.w;
     int degree = int(o2.w), mode = int(eye_hi.w);
@@ -156,7 +159,7 @@ void main()
     if (effects.y > 0.0) {
         centre_local = displaced(int(effects.x), int(effects.y), centre_local, splat);
         vec3 rest = effects.z > 0.5 ? fetch(rest_tex, splat).xyz : p.xyz;
-        apply_effects(int(effects.x), int(effects.y), centre_local, rest, splat - int(ortho_dir.w),
+        apply_effects(int(effects.x), int(effects.y), centre_local, rest, local,
                       opacity, scale, dc);
     }
     opacity *= o1.w;

@@ -27,4 +27,5 @@ GPU_MODULE_TESTS = frozenset({
     "blender/viewport/test_viewport_displace.py",
     "blender/viewport/test_viewport_memory.py",
     "blender/viewport/test_viewport_speed_paths.py",
+    "blender/viewport/test_viewport_instances.py",
 })

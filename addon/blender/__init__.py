@@ -16,6 +16,7 @@ _MODULES = (
     "ops.dynamic",        # File > Import > Dynamic Splat Capture
     "ops.camera_track",   # File > Import > Splat Camera Track
     "ops.sequence",       # splat sequence import, bake
+    "ops.apply_transform",  # Object > Apply > Splat Rotation & Scale
     "ops.effects",        # effect stack operators
     "ui.object_panels",   # Object properties: sequence, look, effects (shown in this order)
     "viewport",           # SpaceView3D draw handler

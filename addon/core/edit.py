@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import operator
 import re
-from dataclasses import replace
 
 import numpy as np
 
-from .reframe import reframe, turn
+from . import linear_map
+from .reframe import reframe
 from .select import limit_count
 from .splats import SplatSet, sh_coeff_count
 
@@ -32,11 +32,7 @@ def transform(splats: SplatSet, translate=(0, 0, 0), rotate=(0, 0, 0), scale=1.0
     view-dependent colour turns too) and grow with scale."""
     if scale <= 0 or not np.isfinite(scale):
         raise ValueError(f"scale must be a positive number, not {scale}")
-    r = _euler_matrix(rotate)
-    rotations, rest = turn(splats, r)
-    pos = scale * (splats.positions.astype(np.float64) @ r.T) + np.asarray(translate, np.float64)
-    return replace(splats, positions=pos.astype(np.float32), rotations=rotations,
-                   scales=(splats.scales * np.float32(scale)).astype(np.float32), sh_rest=rest)
+    return linear_map.bake(splats, scale * _euler_matrix(rotate), translate)
 
 
 def keep_box(splats: SplatSet, lo, hi) -> SplatSet:

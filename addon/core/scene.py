@@ -21,7 +21,12 @@ class RenderItem:
     sh_degree      bands above this are ignored (capped by the data's own degree)
     color_matrix   (3, 4) affine applied to the SH colour (after +0.5, before the clamp
                    at 0): tint, exposure, saturation and hue as one linear map
-    key            identity for caches: (object name, geometry version); None = no caching
+    key            identity for caches: (object name, geometry version); None = no caching.
+                   Instances of one object share its key (equal keys mean equal splats), so
+                   a renderer uploads their splats once
+    instance       which copy of the object this is: () for the object itself, else its
+                   instance path (instancer's name, persistent id); (key[0], instance) is
+                   unique in a frame's items
     positions_key  equal non-None keys mean bitwise-equal positions (a renderer may keep its
                    depth sort); None = unknown. Colour/opacity-only changes keep it.
     base_key       the version of the data before effects and crop; None = unknown
@@ -50,6 +55,7 @@ class RenderItem:
     base_fields: frozenset = frozenset()
     deferred: tuple = ()
     rest_positions: np.ndarray | None = None
+    instance: tuple = ()
 
     @property
     def effective_sh_degree(self) -> int:

@@ -21,7 +21,7 @@ def evaluated_item(obj, depsgraph):
     """evaluate.py's RenderItem for obj (matched by the item key's name_full: a linked
     object may share its .name with a local one)."""
     for item in collect_items(depsgraph):
-        if item.key is not None and item.key[0] == obj.name_full:
+        if item.key is not None and item.key[0] == obj.name_full and not item.instance:
             return item
     raise LookupError(f"object {obj.name!r} is not a visible splat object in the view layer")
 

@@ -25,6 +25,7 @@ from ...core.effects.recycle import BUFFERS
 from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import ARRAYS
 from . import effect_params
+from .instancers import may_instance_splats
 from ..registration import app_handlers
 from ..data.source_kind import SourceFrame
 from ..data.sources import is_splat_object, source_of
@@ -32,10 +33,50 @@ from ..data.stored_splats import CACHE
 
 
 def splat_objects(depsgraph):
-    """Evaluated splat objects that the depsgraph considers visible (view layer, collections)."""
+    """Evaluated splat objects that the depsgraph considers visible (view layer, collections),
+    without their instances (splat_instances has those)."""
     for obj in depsgraph.objects:
         if is_splat_object(obj):
             yield obj
+
+
+NO_INDEX = 2 ** 31 - 1  # a persistent id's unused levels
+
+
+def instance_path(instance) -> tuple:
+    """() for an object drawn as itself; else (its instancer's name_full, the instance's
+    persistent id without its unused levels): unique among a depsgraph's instances, and the
+    same from frame to frame while the instancer is."""
+    if not instance.is_instance:
+        return ()
+    pid = list(instance.persistent_id)
+    while pid and pid[-1] == NO_INDEX:
+        pid.pop()
+    return (instance.parent.original.name_full, *pid)
+
+
+def splat_instances(depsgraph):
+    """(evaluated object, (4, 4) world matrix, instance path) of every splat object the
+    depsgraph draws: objects as themselves, and their collection, Geometry Nodes and
+    vertex/face instances. The object is valid only until the next item is asked for
+    (Blender's instance iterator): evaluate it before. Where no object may instance splats
+    (instancers.py), the objects alone: walking the instances costs microseconds each."""
+    if not may_instance_splats(depsgraph):
+        for obj in splat_objects(depsgraph):
+            yield obj, np.array(obj.matrix_world, np.float64), ()
+        return
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if instance.show_self and is_splat_object(obj):
+            yield obj, np.array(instance.matrix_world, np.float64), instance_path(instance)
+
+
+def source_ident(obj_eval) -> tuple:
+    """What instances of one source have in common: its object and data. A geometry that
+    Geometry Nodes realised (Object Info with As Instance off) comes as a temporary object
+    whose original is the modifier's holder: its data tells such geometries apart."""
+    data = obj_eval.data
+    return obj_eval.original.name_full, data.name_full, len(data.points)
 
 
 SPLAT_FIELDS = frozenset(ARRAYS)
@@ -160,7 +201,25 @@ def shown(obj_eval) -> bool:
 
 
 def collect_items(depsgraph, defer=None) -> list[RenderItem]:
-    return [item_for(obj, depsgraph, defer) for obj in splat_objects(depsgraph) if shown(obj)]
+    """The items of every splat object and instance drawn. A source is evaluated once: its
+    instances are its item (the same splats, key, look and effects) at their own world
+    matrices, so a renderer uploads their splats once and sorts them all as one set."""
+    items, evaluated = [], {}
+    for obj, world, path in splat_instances(depsgraph):
+        ident = source_ident(obj)
+        if ident not in evaluated:
+            evaluated[ident] = item_for(obj, depsgraph, defer) if shown(obj) else None
+        item = evaluated[ident]
+        if item is not None:
+            items.append(placed(item, world, path))
+    return items
+
+
+def placed(item: RenderItem, world: np.ndarray, path: tuple) -> RenderItem:
+    """The item drawn at `world` as instance `path` (sharing its arrays)."""
+    if path == item.instance and np.array_equal(world, item.world):
+        return item
+    return replace(item, world=world, instance=path)
 
 
 def any_antialiased(depsgraph) -> bool:

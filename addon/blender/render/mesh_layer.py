@@ -7,8 +7,8 @@ Render > Splatline > Meshes is Drawn gets:
   marked MARK): the same surface objects, lights and light probes linked (not copied) into
   its own collections, the same camera, camera markers and world, and the engine chosen in
   Mesh Engine (Workbench, EEVEE, Cycles). Splat objects are never linked into it (Blender
-  5.3 would draw them natively; older Blenders as points), nor collection instances that
-  would bring splats in;
+  5.3 would draw them natively; older Blenders as points), nor collection instances or
+  Geometry Nodes objects that would bring splats in (their meshes then stay out too);
 - a **compositor** in the Splatline scene: each Render Layers node of the scene's own layers
   goes through an Alpha Over node whose background is a Render Layers node of the
   mesh scene (mesh_compositor.py). With no compositor of the user's, Splatline makes one
@@ -35,6 +35,7 @@ from ..props import render as render_props
 from ..data.pointcloud import COMPANION_MARK
 from ..data.sources import is_splat_object
 from ..evaluate.holdout_geometry import is_surface
+from ..evaluate.instancers import instances_splats
 from . import mesh_compositor
 
 ENGINE = "SPLATLINE"
@@ -90,19 +91,6 @@ def _collection_objects(collection, out):
         _collection_objects(child, out)
 
 
-def _holds_splats(collection, depth=0) -> bool:
-    if depth > 32:
-        return True
-    if any(is_splat_object(o) or _instances_splats(o, depth + 1) for o in collection.all_objects):
-        return True
-    return False
-
-
-def _instances_splats(obj, depth=0) -> bool:
-    inst = obj.instance_collection if obj.instance_type == "COLLECTION" else None
-    return inst is not None and _holds_splats(inst, depth)
-
-
 def drawn_objects(scene) -> dict:
     """{object: (holdout, indirect_only)} of what the mesh layer draws: surfaces, lights and
     light probes, and collection instances without splats in them, in the render-enabled
@@ -120,9 +108,9 @@ def drawn_objects(scene) -> dict:
         if COMPANION_MARK in obj.keys() or is_splat_object(obj):
             continue
         if (is_surface(obj) or obj.type in LIGHT_TYPES
-                or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None
-                    and not _instances_splats(obj))):
-            out[obj] = flags
+                or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None)):
+            if not instances_splats(obj):
+                out[obj] = flags
     return out
 
 

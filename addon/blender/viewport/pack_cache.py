@@ -85,3 +85,31 @@ def upload_if_new(tokens: dict, gpu, name: str, got: list, flat) -> bool:
 def joined(got: list, counts: list, per_splat: int):
     """The objects' packed streams (PackCache.get's results) as one stream, in order."""
     return got[0][1] if len(got) == 1 else packing.concatenate([a for _, a in got], counts, per_splat)
+
+
+def shared_data(items) -> tuple[list, list]:
+    """(index of each distinct data's first item, each item's slot in that list). Instances
+    of one object share its item's arrays (evaluate.items.placed): their data is packed and
+    uploaded once, and each instance draws it through its own object row."""
+    firsts, slots, seen = [], [], {}
+    for k, item in enumerate(items):
+        ident = (item.key, id(item.splats), tuple(map(id, item.deferred)), id(item.rest_positions))
+        if item.key is None:
+            ident = (k,)  # uncached: its own data
+        if ident not in seen:
+            seen[ident] = len(firsts)
+            firsts.append(k)
+        slots.append(seen[ident])
+    return firsts, slots
+
+
+def data_firsts(items, slots) -> list:
+    """Each distinct data's first splat in the data textures."""
+    counts = {}
+    for item, slot in zip(items, slots):
+        counts.setdefault(slot, item.splats.count)
+    out, start = [], 0
+    for slot in range(len(counts)):
+        out.append(start)
+        start += counts[slot]
+    return out

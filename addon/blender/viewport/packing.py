@@ -35,7 +35,7 @@ from ...core.splats import SplatSet, sh_coeff_count
 WIDTH = 4096          # texels per row of every data texture
 MAX_HEIGHT = 16384    # the smallest GL_MAX_TEXTURE_SIZE Blender supports
 SHAPE_VALUES = 9
-OBJECT_TEXELS = 10    # per-object table row: see object_rows
+OBJECT_TEXELS = 11    # per-object table row: see object_rows
 # a deferred morph's target, in the layouts of pos, shape and sh, and its centres (the
 # shader reads those in their place where no object morphs)
 MORPH = {"morph_pos": "pos", "morph_shape": "shape", "morph_sh": "sh", "morph_centres": "pos"}
@@ -310,9 +310,12 @@ def concatenate(parts: list[np.ndarray], counts: list[int], per_splat: int) -> n
 
 def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: float,
                 sh_degree: int, mode: int, sh_only: bool, color_matrix: np.ndarray,
-                ortho: bool, first: int, effects: tuple = (0, 0, False, 0.0)) -> np.ndarray:
+                ortho: bool, first: int, effects: tuple = (0, 0, False, 0.0),
+                data_first: int | None = None) -> np.ndarray:
     """(OBJECT_TEXELS, 4) float32 for one object (layout in viewport_preprocess_frag.glsl).
-    first: the object's first splat in the concatenated data (exact in float to 2^24).
+    first: the object's first splat in the drawn splats, which the order indexes (exact in
+    float to 2^24); data_first: its first splat in the data textures (default first):
+    instances of one object share its data, each drawn with its own row.
     effects: its deferred colour effects' first table texel, count, whether they read
     the rest centres' texture (effect_rows.py), and a deferred morph's amount (0: none)."""
     m = np.asarray(local_to_camera, np.float64)
@@ -327,6 +330,7 @@ def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: 
     rows[8, :3] = forward if ortho else 0.0
     rows[8, 3] = first
     rows[9] = effects
+    rows[10, 0] = first if data_first is None else data_first
     return rows
 
 

@@ -15,6 +15,7 @@ import numpy as np
 import bpy
 
 from ..evaluate import items as evaluate
+from ..evaluate.instancers import may_instance_splats
 from ..data import native
 from ..data.sources import is_splat_object, source_of
 from .effect_rows import on_gpu
@@ -99,12 +100,28 @@ def by_full_name() -> dict:
     return {obj.name_full: obj for obj in bpy.data.objects}
 
 
+def _drawn(depsgraph):
+    """(evaluated object, world, instance path, the original whose visibility decides) of
+    what the depsgraph draws: its objects, and their instances where some object may
+    instance splats (evaluate/instancers.py: walking instances costs microseconds each)."""
+    if not may_instance_splats(depsgraph):
+        for obj in depsgraph.objects:
+            if obj.type == "POINTCLOUD":
+                yield obj, np.array(obj.matrix_world, np.float64), (), obj.original
+        return
+    for instance in depsgraph.object_instances:
+        if instance.show_self:
+            obj = instance.object
+            owner = instance.parent.original if instance.is_instance else obj.original
+            yield obj, np.array(instance.matrix_world, np.float64), evaluate.instance_path(instance), owner
+
+
 class SceneItems:
     """Per-object item cache for the draw handler."""
 
     def __init__(self):  # keyed by the objects' name_full
         self.versions: dict[str, int] = {}
-        self.items: dict[str, tuple] = {}  # name_full -> (version, RenderItem)
+        self.items: dict[str, tuple] = {}  # name_full -> (version, RenderItem, source_ident)
         self.signatures: dict[str, tuple] = {}  # name_full -> settings_signature when last read
 
     def invalidate(self, name: str | None = None) -> None:
@@ -168,43 +185,53 @@ class SceneItems:
                 self.invalidate(name)
 
     def visible(self, context):
-        """(evaluated object, original) for splat objects shown in this viewport. Objects
-        whose Look > Show is off are left out: nothing is packed, uploaded or sorted for
-        them (a morph target is read through its source's effect)."""
+        """(evaluated object, original, depsgraph, world matrix, instance path) for splat
+        objects and their instances shown in this viewport (evaluate.items.splat_instances:
+        the object is valid only until the next one is asked for). Objects whose Look > Show
+        is off are left out: nothing is packed, uploaded or sorted for them (a morph target
+        is read through its source's effect). An instance is shown where its instancer is."""
         depsgraph = context.evaluated_depsgraph_get()
         view_layer, space = context.view_layer, context.space_data
-        for obj_eval in depsgraph.objects:
-            if obj_eval.type != "POINTCLOUD" or not is_splat_object(obj_eval) \
-                    or not evaluate.shown(obj_eval):
+        for obj_eval, world, path, owner in _drawn(depsgraph):
+            if obj_eval.type != "POINTCLOUD" or not is_splat_object(obj_eval) or not evaluate.shown(obj_eval):
                 continue
             if native.drawn_natively(obj_eval.original.data):  # Blender draws it: never twice
                 continue
-            original = obj_eval.original
-            if original.visible_get(view_layer=view_layer, viewport=space):
-                yield obj_eval, original, depsgraph
+            if owner.visible_get(view_layer=view_layer, viewport=space):
+                yield obj_eval, obj_eval.original, depsgraph, world, path
 
     def collect(self, context) -> tuple[list, list]:
+        """The items and display options of what this viewport shows: each source read once
+        a draw, its instances drawn from its item (they share its arrays)."""
         items, displays = [], []
-        seen = set()
-        for obj_eval, original, depsgraph in self.visible(context):
-            name = original.name_full
-            seen.add(name)
-            version = self.versions.setdefault(name, 0)
-            cached = self.items.get(name)
-            world = np.array(obj_eval.matrix_world, np.float64)
-            moved = cached is not None and reads_own_transform(original) and \
-                not np.array_equal(cached[1].world, world)
-            if cached is None or cached[0] != version or moved:
-                self.signatures[name] = settings_signature(original)
-                # the evaluator's own key: with the arrays' identities it decides what
-                # the renderer re-uploads (an effect that only fades uploads one texture)
-                # colour effects the preprocess pass can apply are left to it
-                item = evaluate.item_for(obj_eval, depsgraph, defer=on_gpu)
-            else:
-                item = replace(cached[1], world=world)
-            self.items[name] = (version, item)
-            items.append(item)
+        seen, fresh = set(), {}
+        for obj_eval, original, depsgraph, world, path in self.visible(context):
+            ident = evaluate.source_ident(obj_eval)
+            if ident not in fresh:
+                seen.add(original.name_full)
+                fresh[ident] = self._item(obj_eval, original, depsgraph)
+            items.append(evaluate.placed(fresh[ident], world, path))
             displays.append(display_for(original))
         for name in set(self.items) - seen:  # deleted or hidden: let their data go
             del self.items[name]
         return items, displays
+
+    def _item(self, obj_eval, original, depsgraph):
+        """The object's item at its own place, read again only when its version changed."""
+        name = original.name_full
+        version = self.versions.setdefault(name, 0)
+        cached = self.items.get(name)
+        world = np.array(obj_eval.matrix_world, np.float64)
+        moved = cached is not None and reads_own_transform(original) and \
+            not np.array_equal(cached[1].world, world)
+        ident = evaluate.source_ident(obj_eval)
+        if cached is None or cached[0] != version or moved or cached[2] != ident:
+            self.signatures[name] = settings_signature(original)
+            # the evaluator's own key: with the arrays' identities it decides what
+            # the renderer re-uploads (an effect that only fades uploads one texture)
+            # colour effects the preprocess pass can apply are left to it
+            item = evaluate.item_for(obj_eval, depsgraph, defer=on_gpu)
+        else:
+            item = replace(cached[1], world=world)
+        self.items[name] = (version, item, ident)
+        return item

@@ -20,7 +20,8 @@ from ...core.scene import RenderItem
 from . import packing
 from .effect_rows import displace_layers, displace_of, effect_rows, morph_of
 from .effect_textures import EffectTextures
-from .pack_cache import PackCache, data_key, joined, pos_source, positions_key_of, reads_rest, upload_if_new
+from .pack_cache import (PackCache, data_firsts, data_key, joined, pos_source, positions_key_of, reads_rest,
+                         shared_data, upload_if_new)
 from .staging import ALL, ALPHA, PosStage, ShapeStage
 from ...core.viewport_sort import (LazyArray, SortInput, SortWorker, bounding_radius, centres_layout,
                                    visible_order)
@@ -217,14 +218,12 @@ class ViewportRenderer:
                                 key=data_key(i, ("scales",)))
                  for i in items]
         token = tuple(ident for ident, _ in soa)
-        self.state.layout = tuple((i.key[0] if i.key else None, i.splats.count) for i in items)
         if token != self.state.positions_token:
             self.state.positions_token = token
-            if self.state.sorted_layout != self.state.layout:
-                self.state.sorted_token = None  # the old order is not for these splats: sort inline
+        if self.state.sorted_layout != self.state.layout:
+            self.state.sorted_token = None  # the old order is not for these splats: sort inline
         self.state.radius_token = tuple(ident for ident, _ in radii)
         self.stats.cpu_bytes = self.packs.end_frame() + self.pos.nbytes + self.shape.nbytes
-        self.stats.total = sum(i.splats.count for i in items)
         if seconds:
             self.stats.upload_seconds = seconds
             self.stats.frame_upload += seconds
@@ -322,10 +321,15 @@ class ViewportRenderer:
                                linear_output=settings.linear_output, point_size=settings.point_size)
         view = np.asarray(view_matrix, np.float64)
         l2c = [view @ np.asarray(i.world, np.float64) for i in items]
-        soa = self._update_data(items, displays)
+        data, slots = shared_data(items)
+        # what sorting needs is per instance (its order's indices); the rest is per data
+        self.state.layout = tuple((i.key[0] if i.key else None, i.instance, i.splats.count) for i in items)
+        soa = self._update_data([items[k] for k in data], [displays[k] for k in data])
+        soa = [soa[s] for s in slots]
+        self.stats.total = sum(i.splats.count for i in items)
         near, far = const["frame"][2], const["frame"][3]
         self._update_order(items, soa, displays, l2c, projection_matrix, near, far, settings)
-        self._update_objects(items, displays, l2c, bool(const["flags"][0]))
+        self._update_objects(items, displays, l2c, bool(const["flags"][0]), slots)
         self.stats.gpu_bytes = self.gpu.nbytes
         self.stats.frame_bytes = self.gpu.uploaded - uploaded
         return const
@@ -352,16 +356,19 @@ class ViewportRenderer:
         self.layers = seen
         return out
 
-    def _update_objects(self, items, displays, l2c, ortho) -> None:
+    def _update_objects(self, items, displays, l2c, ortho, slots) -> None:
         rows, effects, first = [], [], 0
         texel = len(items) * packing.OBJECT_TEXELS  # the effects' rows follow the objects'
-        for item, d, m, starts in zip(items, displays, l2c, self.effects.field_starts):
+        data_first = data_firsts(items, slots)
+        for item, d, m, slot in zip(items, displays, l2c, slots):
+            starts = self.effects.field_starts[slot]
             morph = morph_of(item.deferred)
             colour = len(item.deferred) - (morph is not None)
             rows.append(packing.object_rows(m, item.splat_scale * d.splat_scale, item.opacity_scale,
                                             _degree(item, d), MODES[d.mode], d.sh_only, item.color_matrix,
                                             ortho, first, (texel, colour, reads_rest(item),
-                                                           0.0 if morph is None else morph.amount)))
+                                                           0.0 if morph is None else morph.amount),
+                                            data_first[slot]))
             effects.append(effect_rows(item.deferred, starts))
             texel += effects[-1].shape[0]
             first += item.splats.count
@@ -373,3 +380,4 @@ class ViewportRenderer:
         self.stats.frame_upload += time.perf_counter() - start
         self.state.objects_token = table
         self.stats.table_uploads += 1
+

@@ -19,7 +19,7 @@ from ..select import select
 from ..reframe import reframe
 from ..splats import AXES, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
 from ..validate import BadValues, check_values
-from . import table
+from . import readfile, table
 from ._common import file_size
 
 # The lists other modules import, derived from the format table on each use (so a row a
@@ -46,6 +46,7 @@ class ReadReport:
     count_in_file: int = 0
     sh_degree_in_file: int = 0
     bad: BadValues = field(default_factory=BadValues)
+    file_bytes: int | None = None  # the size of the file as it was read (not a later stat)
 
     @property
     def dropped_sh(self) -> str:
@@ -80,25 +81,30 @@ def _reader(fmt: str):
 
 
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
-                     format=None, axes=None, max_splats=None) -> tuple[SplatSet, ReadReport]:
+                     format=None, axes=None, max_splats=None,
+                     keep_replaced=False) -> tuple[SplatSet, ReadReport]:
     """Decode a file, handle bad values by policy `bad` ("fix", "drop", "error"), then apply
     the import options. `axes` overrides the file's axis convention (e.g. "RUB" for an spz
     written by Niantic's own tools); `format` skips detection. `max_splats` is the splat
     budget: a file claiming more is refused before anything is decompressed or allocated
-    (None: what fits in available memory; unlike max_count, it never subsamples)."""
+    (None: what fits in available memory; unlike max_count, it never subsamples).
+    keep_replaced: with bad="fix", report.bad.replaced keeps the fixed splats' original
+    values (core/validate.py), for statistics that leave the replaced values out."""
     if axes is not None and axes not in AXES:
         raise ValueError(f"axes {axes!r} is not one of {AXES}")
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
     try:  # open/read can still fail after the stat checks (permission denied, I/O error)
         fmt = format or detect_format(path)
-        splats = _reader(fmt)(path, max_degree, max_splats)
+        with readfile.recording() as opened:
+            splats = _reader(fmt)(path, max_degree, max_splats)
     except OSError as exc:
         raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
         splats.axes = axes
     in_file = splats.sh_degree if splats.sh_degree_in_file is None else splats.sh_degree_in_file
-    report = ReadReport(os.fspath(path), fmt, splats.count, in_file)
-    splats, report.bad = check_values(splats, bad, path)
+    report = ReadReport(os.fspath(path), fmt, splats.count, in_file,
+                        file_bytes=next((n for p, n in opened if p == os.fspath(path)), None))
+    splats, report.bad = check_values(splats, bad, path, keep_replaced)
     splats = select(splats, sh_degree, min_opacity, max_count)
     return splats.check(), report
 

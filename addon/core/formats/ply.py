@@ -5,11 +5,12 @@ unknown extra properties are ignored. f_rest is channel-major in the file
 (f_rest_k, f_rest_{k+K}, f_rest_{k+2K} are r, g, b of coefficient k) and becomes
 SplatSet.sh_rest (N, K, 3). Axis convention: RDF (COLMAP camera frame).
 
-Speed: the binary body is memory-mapped as a structured array (plyheader.read_body),
-and each attribute group is copied out through a strided view (one copy per group,
-in float32), so a 1M-splat degree-3 file costs a few hundred milliseconds.
-Not plyfile: its reading is the same memory map, but its header parser has no size
-bound (docs/DESIGN.md, "PLY without plyfile"; bench/plyfile_bench.py).
+Speed: the binary body is read into one structured array (plyheader.read_body: readinto
+in blocks, never a memory map, which a file shrinking mid-read turns into SIGBUS), and
+each attribute group is copied out through a strided view (one copy per group, in
+float32), so a 1M-splat degree-3 file costs a few hundred milliseconds.
+Not plyfile: its header parser has no size bound (docs/DESIGN.md, "PLY without plyfile";
+bench/plyfile_bench.py).
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from ..errors import SplatFormatError
 from ..splats import AXES_RDF, RENDER_MAX_DEGREE, FILE_MAX_DEGREE, SplatSet, file_sh_degree, sh_coeff_count
 from ._common import check_budget, logit, normalize_quats_, sigmoid_, write_file
 from .plyheader import parse_header, read_body
+from .readfile import OpenedFile
 
 POS = ("x", "y", "z")
 SCALE = ("scale_0", "scale_1", "scale_2")
@@ -142,7 +144,13 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
 
 
 def read_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
-    header = parse_header(path)
+    with OpenedFile(path) as f:
+        header = parse_header(f)
+        rec = _vertex_records(path, f, header, max_splats)
+    return decode_vertices(path, rec, max_degree)
+
+
+def _vertex_records(path, f: OpenedFile, header, max_splats) -> np.ndarray:
     vertex = header.element("vertex")
     if vertex is None:
         raise SplatFormatError(path, "PLY has no vertex element")
@@ -150,8 +158,7 @@ def read_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
         raise SplatFormatError(path, "this is a compressed PLY (chunk element); read it as compressed_ply")
     rest = sum(1 for name in vertex.names() if name.startswith("f_rest_"))
     check_budget(path, vertex.count, rest, max_splats)
-    body = read_body(path, header)
-    return decode_vertices(path, body["vertex"], max_degree)
+    return read_body(f, header)["vertex"]
 
 
 def ply_dtype(degree: int) -> np.dtype:

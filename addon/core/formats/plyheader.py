@@ -155,6 +155,37 @@ def read_body(f: OpenedFile, header: Header) -> dict:
     return out
 
 
+class Records:
+    """A binary element's records read block by block into one reused buffer: what
+    ply.gather walks, so an INRIA body is never held whole (the decoded arrays are the only
+    copy) and each block is copied out while it is still in the CPU's cache.
+    Quacks like the structured array for what gather and decode_vertices ask (dtype, shape)."""
+
+    def __init__(self, f: OpenedFile, dtype: np.dtype, count: int, offset: int, per_block: int):
+        self.f, self.dtype, self.shape = f, dtype, (count,)
+        self.offset, self.per_block = offset, max(1, per_block)
+
+    def blocks(self):
+        """(first record index, the records) for each block, in the same reused buffer."""
+        n, size = self.shape[0], self.dtype.itemsize
+        buf = np.empty(min(self.per_block, n), self.dtype)
+        for i in range(0, n, self.per_block):
+            b = min(self.per_block, n - i)
+            self.f.readinto(buf[:b], self.offset + i * size)
+            yield i, buf[:b]
+
+
+def element_records(f: OpenedFile, header: Header, name: str, per_block: int) -> Records:
+    """One binary element as Records; the caller calls f.check_unchanged() after walking it."""
+    offset = header.body_offset
+    for e in header.elements:
+        dt = e.dtype(header.encoding)
+        if e.name == name:
+            return Records(f, dt, e.count, offset, per_block)
+        offset += e.count * dt.itemsize
+    raise KeyError(name)
+
+
 def read_elements(path) -> tuple[Header, dict]:
     """(header, body) of a PLY file by path."""
     with OpenedFile(path) as f:

@@ -12,8 +12,8 @@ change into one SplatFormatError:
             read is fine: the bytes read are whole and nothing else claims the name
 The data a reader returns is therefore the file as it was when it was opened, or an error.
 
-Test hook: `after_block`, when set, is called as after_block(path, k) after block k of a body
-read (k = 0, 1, ...), so fault-injection tests can truncate, grow or replace the file at a
+Test hook: `after_block`, when set, is called as after_block(path, k) after the file's block k
+is read (k = 0, 1, ... over every read of the file but headers and magic), so fault-injection tests can truncate, grow or replace the file at a
 chosen point without sleeps (tests/core/formats/test_read_fault_injection.py). It is None in
 use: one `is not None` test per block. `BLOCK` is the block size in bytes.
 """
@@ -64,6 +64,7 @@ class OpenedFile:
             raise SplatFormatError(path, "is not a regular file" if not stat.S_ISREG(st.st_mode)
                                    else "file is empty (0 bytes)")
         self._opened = st
+        self._blocks = 0  # blocks read so far, over every readinto (after_block's k)
         self.size = int(st.st_size)
         sizes = _record.get()
         if sizes is not None:
@@ -83,7 +84,7 @@ class OpenedFile:
     def readinto(self, buf, offset: int) -> None:
         """Fill buf (a writable buffer) from offset, in blocks, or raise: never a short fill."""
         view = memoryview(buf).cast("B")
-        want, done, k = view.nbytes, 0, 0
+        want, done = view.nbytes, 0
         self._f.seek(offset)
         while done < want:
             got = self._f.readinto(view[done:done + min(BLOCK, want - done)])
@@ -92,8 +93,8 @@ class OpenedFile:
                                                   f"{offset + want} bytes, got {offset + done}")
             done += got
             if after_block is not None:
-                after_block(self.path, k)
-            k += 1
+                after_block(self.path, self._blocks)
+            self._blocks += 1
 
     def read_array(self, dtype, count: int, offset: int) -> np.ndarray:
         """count records of dtype at offset, in a new array this process owns."""

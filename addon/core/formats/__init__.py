@@ -2,7 +2,7 @@
 
     read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", max_splats=None) -> SplatSet
     read_with_report(path, ...) -> (SplatSet, ReadReport)
-    write(path, splats, format=None)
+    write(path, splats, format=None) -> notes: one line each for what the format changed
 
 Readers return SplatSet with activations applied and the file's axis convention.
 Every failure raises SplatFormatError(path, reason).
@@ -123,10 +123,12 @@ def format_for_output(path) -> str:
     return fmt.name
 
 
-def write(path, splats: SplatSet, format=None, **options) -> None:
+def write(path, splats: SplatSet, format=None, **options) -> list:
     """Write in the format's own axis convention: a set in another convention (an spz read
     as RUB, a procedural RFU set) is re-expressed first, so the file means the same thing.
-    `options` go to the writer: spz `version` (4 or 3); sog `iterations`, `seed`."""
+    `options` go to the writer: spz `version` (4 or 3); sog `iterations`, `seed`.
+    Returns the writer's notes, one line each for data the format could not hold as it was
+    (spz: scales outside its range, clamped, with counts); callers show them, never drop them."""
     fmt = format or format_for_output(path)
     row = table.row(fmt)
     if row is not None and row.writer is not None:
@@ -135,7 +137,7 @@ def write(path, splats: SplatSet, format=None, **options) -> None:
         raise SplatFormatError(path, "is a directory")
     _refuse_negative_scales(path, splats)
     with atomic.sigterm_cleans_up(), _claimed(path):
-        _write(path, splats, fmt, options)
+        return _write(path, splats, fmt, options)
 
 
 def _claimed(path):
@@ -161,7 +163,7 @@ def _write(path, splats: SplatSet, fmt: str, options: dict) -> None:
     row = table.row(fmt)
     if row is None or row.writer is None:
         raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(_DERIVED['WRITE_FORMATS']())}")
-    row.write(path, splats, options)
+    return row.write(path, splats, options)
 
 
 def _refuse_negative_scales(path, splats: SplatSet) -> None:

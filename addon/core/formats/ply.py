@@ -175,7 +175,8 @@ def _vertex_records(path, f: OpenedFile, header, max_splats):
     check_budget(path, vertex.count, rest, max_splats)
     if header.encoding == "ascii":
         return read_body(f, header)["vertex"]
-    return element_records(f, header, "vertex", min(BLOCK, readfile.BLOCK // vertex.dtype("<").itemsize))
+    per_block = min(BLOCK, readfile.BLOCK // max(1, vertex.dtype("<").itemsize))  # 0 properties: 0 bytes
+    return element_records(f, header, "vertex", per_block)
 
 
 def ply_dtype(degree: int) -> np.dtype:

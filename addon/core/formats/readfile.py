@@ -89,12 +89,16 @@ class OpenedFile:
         while done < want:
             got = self._f.readinto(view[done:done + min(BLOCK, want - done)])
             if not got:
-                raise SplatFormatError(self.path, f"file shrank while it was read: expected "
-                                                  f"{offset + want} bytes, got {offset + done}")
+                raise self._shrank(offset + done)
             done += got
             if after_block is not None:
                 after_block(self.path, self._blocks)
             self._blocks += 1
+
+    def _shrank(self, read_to: int) -> SplatFormatError:
+        now = os.fstat(self._f.fileno()).st_size
+        return SplatFormatError(self.path, f"file shrank while it was read: expected {self.size} "
+                                           f"bytes, got {now if now < self.size else read_to}")
 
     def read_array(self, dtype, count: int, offset: int) -> np.ndarray:
         """count records of dtype at offset, in a new array this process owns."""

@@ -2,9 +2,10 @@
 
 Why not mmap: a mapped page past the end of a file that shrank while it was read (a trainer
 rewriting a sequence frame, a copy still in progress) raises SIGBUS, which kills the process,
-Blender with the user's unsaved work included. Reading with readinto into a preallocated
-buffer costs the same memory as the mapped pages did (the body once) and turns every such
-change into one SplatFormatError:
+Blender with the user's unsaved work included. Reading with readinto into memory the reader
+owns (an INRIA PLY body block by block as it is decoded, plyheader.Records; other formats'
+bytes whole, at most what the mapped pages took) turns every such change into one
+SplatFormatError:
   shrank    a block comes back short: "file shrank while it was read: expected N bytes, got M"
   grew      fstat after the read shows another size
   rewritten the size is the same but the modification time moved

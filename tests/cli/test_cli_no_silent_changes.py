@@ -63,7 +63,7 @@ def test_info_stats_counts_nan_per_column_and_leaves_replaced_values_out(tmp_pat
 
 def _cut_last_member(src, dst):
     """A SOG whose last member (meta.json) claims 60000 bytes, running past the end of the
-    file: zipfile's EOFError for it has no message."""
+    file."""
     data = bytearray(src.read_bytes())
     last = max(zipfile.ZipFile(src).infolist(), key=lambda i: i.header_offset)
     pos = 0
@@ -82,5 +82,9 @@ def test_a_sog_member_cut_short_names_a_reason(testdata, tmp_path):
     member = _cut_last_member(testdata / "test64.sog", path)
     rc, out, err, _ = cli("info", path)
     assert rc == 1
-    line = one_line(err, str(path), f"cannot inflate {member}", "ends early")
-    assert not line.rstrip().endswith(":"), line
+    line = one_line(err, str(path), f"cannot inflate {member}: ")
+    # Python 3.11's zipfile raises an EOFError without a message here (the old line ended in
+    # ": "); 3.13's refuses the entry first ("Overlapped entries")
+    reason = line.split(f"cannot inflate {member}: ", 1)[1].strip()
+    assert reason in ("compressed data ends early (the file is truncated or corrupt)",
+                      f"Overlapped entries: {member!r} (possible zip bomb)"), line

@@ -1,8 +1,11 @@
 """Shared fixtures. Core tests need no bpy; blender tests use the real bpy module."""
 from __future__ import annotations
 
+import faulthandler
 import os
 import pathlib
+import shutil
+import tempfile
 
 import pytest
 
@@ -27,11 +30,51 @@ if GPU_BACKEND == "OPENGL":
         os.environ[_var] = str(REPO / "no-vulkan-driver.json")  # no such file: no driver
 
 
+@pytest.hookimpl(trylast=True)  # after pytest's faulthandler plugin, which enables it on stderr
 def pytest_configure(config):
+    _crash_logs(config)
     if GPU_BACKEND is not None and GPU_BACKEND not in GPU_BACKENDS:
         raise pytest.UsageError(f"SPLATLINE_GPU_BACKEND={GPU_BACKEND}: expected one of {GPU_BACKENDS}")
     config.addinivalue_line(
         "markers", "gpu_module: draws through Blender's gpu module (GPU_MODULE_TESTS in conftest)")
+
+
+# A crashed test process (a signal: SIGSEGV, SIGBUS, SIGABRT) must say which test and which
+# signal, with its Python stacks. pytest's own faulthandler plugin writes them to the
+# worker's stderr, where xdist's interleaved output buries them, and xdist's report only says
+# "worker 'gw1' crashed while running X". So each xdist worker points faulthandler at its own
+# log in a folder the controller made (every thread's stack, the signal's name first), and
+# the controller appends that log to the crashed test's report (pytest_handlecrashitem).
+CRASH_DIR = "SPLATLINE_CRASH_LOGS"
+
+
+def _crash_logs(config) -> None:
+    worker = getattr(config, "workerinput", None)
+    if worker is None:
+        if not hasattr(config.option, "numprocesses"):
+            return  # no xdist: the faulthandler plugin's stderr is the report
+        folder = tempfile.mkdtemp(prefix="splatline-crash-")
+        os.environ[CRASH_DIR] = folder  # the workers, started after configure, inherit it
+        config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
+    elif os.environ.get(CRASH_DIR):
+        log = open(os.path.join(os.environ[CRASH_DIR], f"{worker['workerid']}.log"), "w")
+        faulthandler.enable(file=log, all_threads=True)
+        config.add_cleanup(log.close)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_handlecrashitem(crashitem, report, sched):
+    folder = os.environ.get(CRASH_DIR)
+    node = getattr(report, "node", None)
+    if not folder or node is None:
+        return
+    try:
+        with open(os.path.join(folder, f"{node.gateway.id}.log"), errors="replace") as f:
+            stacks = f.read().strip()
+    except OSError:
+        return
+    if stacks:  # "Fatal Python error: Bus error", then every thread's stack, the crashed one first
+        report.longrepr = f"{report.longrepr}\n{stacks}"
 
 
 def pytest_collection_modifyitems(config, items):

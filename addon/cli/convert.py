@@ -115,7 +115,9 @@ def run(args) -> int:
     total = sum(r.count_in_file for _, r in loaded)
     splats = edits.apply(args, splats)
     _refuse_empty(", ".join(args.input), total, splats.count)
-    write(args.output, splats, fmt, **({"version": args.spz_version} if fmt == "spz" else {}))
+    notes = write(args.output, splats, fmt, **({"version": args.spz_version} if fmt == "spz" else {}))
+    for note in notes:
+        print(f"warning: {args.output}: {note}", file=sys.stderr)
     source = ", ".join(f"{r.path} ({r.format}, {r.count_in_file} splats)" for _, r in loaded)
     print(f"{source} -> {args.output} "
           f"({fmt}, {splats.count} splats, SH degree {min(splats.sh_degree, table.row(fmt).max_sh_degree)})")

@@ -27,9 +27,14 @@ def configure(parser):
 def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
     """What `info` prints, as a dict (bad values are counted, not dropped); `axes` overrides
     the file's convention (the bounds are the file's values either way)."""
-    splats, report = read_with_report(path, bad="fix", max_splats=max_splats, axes=axes)
-    finite = np.isfinite(splats.positions).all(axis=1) if splats.count else np.zeros(0, bool)
-    pos = splats.positions[finite]
+    splats, report = read_with_report(path, bad="fix", max_splats=max_splats, axes=axes,
+                                      keep_replaced=True)
+    pos = splats.positions
+    if report.bad.replaced is not None:  # the box of the positions the file holds, not of fixes
+        rows, originals = report.bad.replaced
+        pos = pos.copy()
+        pos[rows] = originals.positions
+    pos = pos[np.isfinite(pos).all(axis=1)]
     bbox_min = pos.min(axis=0).tolist() if len(pos) else None
     bbox_max = pos.max(axis=0).tolist() if len(pos) else None
     return {
@@ -37,8 +42,8 @@ def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
         "sh_degree": splats.sh_degree, "axes": splats.axes, "antialiased": splats.antialiased,
         "bbox_min": bbox_min, "bbox_max": bbox_max,
         "bad_values": report.bad.as_dict(),
-        "file_bytes": os.path.getsize(path),
-    } | ({"stats": statistics(splats)} if stats else {})
+        "file_bytes": report.file_bytes,
+    } | ({"stats": statistics(splats, report.bad.replaced)} if stats else {})
 
 
 def _fmt_vec(v) -> str:

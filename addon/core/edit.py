@@ -117,11 +117,17 @@ def merge(sets: list) -> SplatSet:
                     antialiased=all(s.antialiased for s in sets)).check()
 
 
-def statistics(splats: SplatSet) -> dict:
-    """{quantity: {min, max, mean, std, nonfinite}} over the activated quantities."""
+def statistics(splats: SplatSet, replaced=None) -> dict:
+    """{quantity: {min, max, mean, std, nonfinite}} over the activated quantities.
+    replaced: (rows, originals) from check_values(keep_replaced=True): those rows are
+    measured as they were in the file, so a value "fix" replaced counts as NaN/Inf in its
+    own column and stays out of the figures."""
     out = {}
     for name in COLUMNS:
-        v = np.asarray(column(splats, name), np.float64)
+        v = np.array(column(splats, name), np.float64)
+        if replaced is not None and len(replaced[0]):
+            with np.errstate(invalid="ignore", over="ignore"):
+                v[replaced[0]] = column(replaced[1], name)
         ok = v[np.isfinite(v)]
         stats = (ok.min(), ok.max(), ok.mean(), ok.std()) if ok.size else (np.nan,) * 4
         out[name] = dict(zip(("min", "max", "mean", "std"), map(float, stats)),

@@ -40,6 +40,7 @@ class BadValues:
     action: str = "fix"
     dropped: int = 0
     nonpositive_scales: int = 0  # finite splats with a scale <= 0
+    replaced: tuple | None = None  # "fix" with keep_replaced: (row indices, SplatSet of their original values)
 
     @property
     def total(self) -> int:
@@ -116,7 +117,8 @@ def find_bad(splats: SplatSet) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict
     return nonfinite, zero_q, nonpos, by_field
 
 
-def check_values(splats: SplatSet, policy: str = "fix", path=None) -> tuple[SplatSet, BadValues]:
+def check_values(splats: SplatSet, policy: str = "fix", path=None,
+                 keep_replaced: bool = False) -> tuple[SplatSet, BadValues]:
     if policy not in POLICIES:
         raise ValueError(f"bad-value policy {policy!r} is not one of {POLICIES}")
     nonfinite, zero_q, nonpos, by_field = find_bad(splats)
@@ -129,6 +131,9 @@ def check_values(splats: SplatSet, policy: str = "fix", path=None) -> tuple[Spla
     if policy == "drop":
         report.dropped = report.total
         return splats.subset(~(nonfinite | zero_q | nonpos)), report
+    if keep_replaced:  # a copy of the bad rows only, before they are changed
+        rows = np.flatnonzero(nonfinite | zero_q | nonpos)
+        report.replaced = (rows, splats.subset(rows))
     _neutralise(splats, nonfinite, zero_q, nonpos)
     return splats, report
 

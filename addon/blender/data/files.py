@@ -153,7 +153,7 @@ def object_splats(obj, evaluated=False, depsgraph=None, axes=None):
     return splats
 
 
-def export_object(obj, path, evaluated=False, depsgraph=None, axes=None) -> None:
+def export_object(obj, path, evaluated=False, depsgraph=None, axes=None) -> list:
     """Write a splat object's data in the format its path names, object-local (the object's transform,
     which carries the axis convention, is not applied). Data stored in another convention
     than the format's is re-expressed in the format's; `axes` says which convention the data
@@ -163,10 +163,10 @@ def export_object(obj, path, evaluated=False, depsgraph=None, axes=None) -> None
     splats = object_splats(obj, evaluated, depsgraph, axes)
     if splats.count == 0:
         raise SplatFormatError(path, f"object {obj.name!r} holds no splats to export")
-    write_in_format_axes(path, fmt, splats)
+    return write_in_format_axes(path, fmt, splats)
 
 
-def write_in_format_axes(path, fmt: str, splats) -> None:
+def write_in_format_axes(path, fmt: str, splats) -> list:
     """Write splats as `fmt`, re-expressed in that format's axis convention (its row in the
-    format table) from the one they carry."""
-    formats.write(path, reframe(splats, formats.table.row(fmt).axes), fmt)
+    format table) from the one they carry; returns the writer's notes (formats.write)."""
+    return formats.write(path, reframe(splats, formats.table.row(fmt).axes), fmt)

@@ -172,11 +172,13 @@ class EXPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ExportHelper):
         for obj in objects:
             path = root + ext if len(objects) == 1 else f"{root}_{bpy.path.clean_name(obj.name)}{ext}"
             try:
-                export_object(obj, path, axes=axes)
+                notes = export_object(obj, path, axes=axes)
             except SplatFormatError as exc:
                 self.report({"ERROR"}, str(exc))
             else:
                 written.append(path)
+                for note in notes:  # what the format could not keep as it was (spz scales)
+                    self.report({"WARNING"}, f"{path}: {note}")
         if not written:
             return {"CANCELLED"}
         self.report({"INFO"}, f"wrote {', '.join(written)} (data in {object_axes(objects[0], axes)} axes)")

@@ -29,6 +29,7 @@ import numpy as np
 
 from .. import budget
 from ..errors import SplatFormatError
+from ..formats.readfile import read_whole
 from ..formats._common import check_budget, file_size
 from ..sh import C0
 from ..splats import AXES_RDF
@@ -260,8 +261,7 @@ def _allocate(n: int, rest: int) -> dict:
 def read_fourdgs(path, max_splats=None) -> DynamicCapture:
     size = file_size(path)
     budget.check(path, size, "--max-memory", "the .4dgs file held in memory while it is decoded")
-    with open(path, "rb") as f:
-        data = f.read()
+    data = read_whole(path, size)  # checked unchanged while it was read
     walk = _Walk(path, data)
     with np.errstate(over="ignore"):  # a float32 overflow becomes inf, and drop_bad counts it
         walk.run(max_splats)

@@ -8,8 +8,8 @@ decoded per pixel by a network) is refused.
 Linear: INRIA properties (SH DC, f_rest) plus trbf_center, trbf_scale, motion_0..2, and
 perhaps `comment cfg_args: start=S duration=D fps=F` (times then in seconds).
 
-Bodies are read into memory this module owns (np.fromfile), never memory-mapped: a file
-that shrinks while it is read must give an error, not SIGBUS. Bad values (docs/dynamic.md):
+Bodies are read into memory this module owns (formats/readfile.py), never memory-mapped: a
+file that shrinks, grows or is replaced while it is read gives one error line, not SIGBUS. Bad values (docs/dynamic.md):
 a splat with NaN anywhere, or an infinite value outside opacity and trbf_scale, or a zero
 rotation with no omega, is dropped and counted in capture.dropped by field.
 """
@@ -23,6 +23,7 @@ from ..errors import SplatFormatError
 from ..formats._common import check_budget, sigmoid_
 from ..formats.ply import columns, rest_names, sh_rest_from
 from ..formats.plyheader import parse_header, read_body
+from ..formats.readfile import OpenedFile
 from ..sh import C0
 from ..splats import AXES_RDF, FILE_MAX_DEGREE, RENDER_MAX_DEGREE, file_sh_degree, sh_coeff_count
 from ..validate import TINY_SCALE
@@ -35,13 +36,14 @@ MOTION = tuple(f"motion_{i}" for i in range(9))
 OMEGA = tuple(f"omega_{i}" for i in range(4))
 REQUIRED = POS + TIME + MOTION[:3] + DC + ("opacity",) + SCALE + ROT
 EXTRA_FLOATS = 24  # time, motion and omega floats a splat holds beyond a static one (budget)
-_CFG = re.compile(r"^comment\s+cfg_args:(.*)$", re.IGNORECASE | re.MULTILINE)
+_CFG = re.compile(r"^cfg_args:(.*)$", re.IGNORECASE)  # a header comment's text
 _NUMBER = r"[=\s]+([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 
 
 def vertex_names(path) -> list:
     """The vertex properties of a PLY (parse_header's checks apply)."""
-    vertex = parse_header(path).element("vertex")
+    with OpenedFile(path) as f:
+        vertex = parse_header(f).element("vertex")
     return vertex.names() if vertex is not None else []
 
 
@@ -49,11 +51,9 @@ def is_dynamic_names(names) -> bool:
     return "trbf_center" in names
 
 
-def cfg_args(path, body_offset: int) -> dict:
+def cfg_args(comments) -> dict:
     """start / duration / fps / sh_degree from a `comment cfg_args:` header line ({} if none)."""
-    with open(path, "rb") as f:
-        text = f.read(body_offset).decode("utf-8", errors="replace")
-    match = _CFG.search(text)
+    match = next(filter(None, (_CFG.match(text) for text in comments)), None)
     if match is None:
         return {}
     found = {}
@@ -62,24 +62,6 @@ def cfg_args(path, body_offset: int) -> dict:
         if value is not None:
             found[key] = float(value.group(1))
     return found
-
-
-def _records(path, header, name: str) -> np.ndarray:
-    """One element's rows, read (not mapped) into memory owned here."""
-    if header.encoding == "ascii":
-        return read_body(path, header)[name]
-    offset = header.body_offset
-    for e in header.elements:
-        if e.name == name:
-            break
-        offset += e.count * e.dtype(header.encoding).itemsize
-    dtype = e.dtype(header.encoding)
-    with open(path, "rb") as f:
-        f.seek(offset)
-        rec = np.fromfile(f, dtype, count=e.count)
-    if rec.shape[0] != e.count:  # the file shrank after its size was checked
-        raise SplatFormatError(path, f"truncated: {rec.shape[0]} of {e.count} {name} rows could be read")
-    return rec
 
 
 def _model(path, names: set) -> tuple[str, int]:
@@ -106,15 +88,16 @@ def _model(path, names: set) -> tuple[str, int]:
 
 
 def read_dynamic_ply(path, max_splats=None) -> DynamicCapture:
-    header = parse_header(path)
-    vertex = header.element("vertex")
-    if vertex is None:
-        raise SplatFormatError(path, "PLY has no vertex element")
-    model, degree = _model(path, set(vertex.names()))
-    check_budget(path, vertex.count, 3 * sh_coeff_count(degree) + EXTRA_FLOATS, max_splats)
-    rec = _records(path, header, "vertex")
+    with OpenedFile(path) as f:
+        header = parse_header(f)
+        vertex = header.element("vertex")
+        if vertex is None:
+            raise SplatFormatError(path, "PLY has no vertex element")
+        model, degree = _model(path, set(vertex.names()))
+        check_budget(path, vertex.count, 3 * sh_coeff_count(degree) + EXTRA_FLOATS, max_splats)
+        rec = read_body(f, header)["vertex"]  # checked unchanged since it was opened
     capture = decode(path, rec, model, degree)
-    cfg = cfg_args(path, header.body_offset)
+    cfg = cfg_args(header.comments)
     if "duration" in cfg:
         start = cfg.get("start", 0.0)
         capture.unit, capture.start, capture.duration = "seconds", start, cfg["duration"]

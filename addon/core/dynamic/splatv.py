@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from ..errors import SplatFormatError
+from ..formats.readfile import OpenedFile
 from ..formats._common import check_budget, file_size, write_file
 from ..sh import C0
 from ..splats import AXES_RDF
@@ -73,11 +74,9 @@ def read_splatv(path, max_splats=None) -> DynamicCapture:
     chunk, offset = _chunk(path, size)
     count = chunk["size"] // RECORD.itemsize
     check_budget(path, count, 24, max_splats)
-    with open(path, "rb") as f:
-        f.seek(offset)
-        rec = np.fromfile(f, RECORD, count=count)
-    if rec.shape[0] != count:
-        raise SplatFormatError(path, f"truncated: {rec.shape[0]} of {count} splats could be read")
+    with OpenedFile(path) as f:  # read, checked block by block and unchanged after
+        rec = f.read_array(RECORD, count, offset)
+        f.check_unchanged()
     filled = np.flatnonzero(rec.view(np.uint8).reshape(count, -1).any(axis=1))
     rec = rec[:filled[-1] + 1 if filled.size else 0]  # all-zero records after the last splat are row padding
     return decode(path, rec)

@@ -2,7 +2,7 @@
 
     read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", max_splats=None) -> SplatSet
     read_with_report(path, ...) -> (SplatSet, ReadReport)
-    write(path, splats, format=None)
+    write(path, splats, format=None) -> notes: one line each for what the format changed
 
 Readers return SplatSet with activations applied and the file's axis convention.
 Every failure raises SplatFormatError(path, reason).
@@ -19,7 +19,7 @@ from ..select import select
 from ..reframe import reframe
 from ..splats import AXES, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
 from ..validate import BadValues, check_values
-from . import table
+from . import readfile, table
 from ._common import file_size
 
 # The lists other modules import, derived from the format table on each use (so a row a
@@ -46,6 +46,7 @@ class ReadReport:
     count_in_file: int = 0
     sh_degree_in_file: int = 0
     bad: BadValues = field(default_factory=BadValues)
+    file_bytes: int | None = None  # the size of the file as it was read (not a later stat)
 
     @property
     def dropped_sh(self) -> str:
@@ -80,25 +81,31 @@ def _reader(fmt: str):
 
 
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
-                     format=None, axes=None, max_splats=None) -> tuple[SplatSet, ReadReport]:
+                     format=None, axes=None, max_splats=None,
+                     keep_replaced=False) -> tuple[SplatSet, ReadReport]:
     """Decode a file, handle bad values by policy `bad` ("fix", "drop", "error"), then apply
     the import options. `axes` overrides the file's axis convention (e.g. "RDF" for an spz
     holding the PLY's values, as splat-transform 3.7 writes them); `format` skips detection.
-    `max_splats` is the splat budget: a file claiming more is refused before anything is decompressed or allocated
-    (None: what fits in available memory; unlike max_count, it never subsamples)."""
+    `max_splats` is the splat budget: a file claiming more is refused before anything is
+    decompressed or allocated (None: what fits in available memory; unlike max_count, it
+    never subsamples). keep_replaced: with bad="fix", report.bad.replaced keeps the fixed
+    splats' original values (core/validate.py), for statistics that leave the replaced
+    values out."""
     if axes is not None and axes not in AXES:
         raise ValueError(f"axes {axes!r} is not one of {AXES}")
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
     try:  # open/read can still fail after the stat checks (permission denied, I/O error)
         fmt = format or detect_format(path)
-        splats = _reader(fmt)(path, max_degree, max_splats)
+        with readfile.recording() as opened:
+            splats = _reader(fmt)(path, max_degree, max_splats)
     except OSError as exc:
         raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
         splats.axes = axes
     in_file = splats.sh_degree if splats.sh_degree_in_file is None else splats.sh_degree_in_file
-    report = ReadReport(os.fspath(path), fmt, splats.count, in_file)
-    splats, report.bad = check_values(splats, bad, path)
+    report = ReadReport(os.fspath(path), fmt, splats.count, in_file,
+                        file_bytes=next((n for p, n in opened if p == os.fspath(path)), None))
+    splats, report.bad = check_values(splats, bad, path, keep_replaced)
     splats = select(splats, sh_degree, min_opacity, max_count)
     return splats.check(), report
 
@@ -117,10 +124,12 @@ def format_for_output(path) -> str:
     return fmt.name
 
 
-def write(path, splats: SplatSet, format=None, **options) -> None:
+def write(path, splats: SplatSet, format=None, **options) -> list:
     """Write in the format's own axis convention: a set in another convention (an spz read
     as RUB, a procedural RFU set) is re-expressed first, so the file means the same thing.
-    `options` go to the writer: spz `version` (4 or 3); sog `iterations`, `seed`."""
+    `options` go to the writer: spz `version` (4 or 3); sog `iterations`, `seed`.
+    Returns the writer's notes, one line each for data the format could not hold as it was
+    (spz: scales outside its range, clamped, with counts); callers show them, never drop them."""
     fmt = format or format_for_output(path)
     row = table.row(fmt)
     if row is not None and row.writer is not None:
@@ -129,7 +138,7 @@ def write(path, splats: SplatSet, format=None, **options) -> None:
         raise SplatFormatError(path, "is a directory")
     _refuse_negative_scales(path, splats)
     with atomic.sigterm_cleans_up(), _claimed(path):
-        _write(path, splats, fmt, options)
+        return _write(path, splats, fmt, options)
 
 
 def _claimed(path):
@@ -155,7 +164,7 @@ def _write(path, splats: SplatSet, fmt: str, options: dict) -> None:
     row = table.row(fmt)
     if row is None or row.writer is None:
         raise SplatFormatError(path, f"unknown write format {fmt!r}; known: {', '.join(_DERIVED['WRITE_FORMATS']())}")
-    row.write(path, splats, options)
+    return row.write(path, splats, options)
 
 
 def _refuse_negative_scales(path, splats: SplatSet) -> None:

@@ -29,15 +29,6 @@ def file_size(path) -> int:
     return int(st.st_size)
 
 
-def read_bytes(path, limit: int) -> bytes:
-    """The whole file, refusing files larger than limit bytes."""
-    size = file_size(path)
-    if size > limit:
-        raise SplatFormatError(path, f"file is {size} bytes, more than the {limit} this format allows")
-    with open(path, "rb") as f:
-        return f.read()
-
-
 def write_file(path, *parts) -> None:
     """Write bytes-like parts (numpy arrays included) to path atomically (core/atomic.py:
     a fsync'd temporary beside the target, renamed over it once every byte is written).

@@ -26,6 +26,7 @@ from ..splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 from ._common import check_budget, normalize_quats_
 from .ply import antialiased_by_comments, columns, sh_rest_from
 from .plyheader import parse_header, read_body
+from .readfile import OpenedFile
 
 CHUNK = 256
 PACKED = ("packed_position", "packed_rotation", "packed_scale", "packed_color")
@@ -70,10 +71,11 @@ def _require(path, rec: np.ndarray, names, element: str) -> None:
 
 
 def read_compressed_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
-    header = parse_header(path)
-    vertex, sh = header.element("vertex"), header.element("sh")
-    check_budget(path, vertex.count if vertex else 0, len(sh.props) if sh else 0, max_splats)
-    body = read_body(path, header)
+    with OpenedFile(path) as f:
+        header = parse_header(f)
+        vertex, sh = header.element("vertex"), header.element("sh")
+        check_budget(path, vertex.count if vertex else 0, len(sh.props) if sh else 0, max_splats)
+        body = read_body(f, header)
     if "chunk" not in body or "vertex" not in body:
         raise SplatFormatError(path, "compressed PLY needs a chunk and a vertex element")
     chunks, vertex = body["chunk"], body["vertex"]

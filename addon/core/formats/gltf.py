@@ -28,7 +28,8 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count
-from ._common import check_budget, file_size, json_object, normalize_quats_
+from ._common import check_budget, json_object, normalize_quats_
+from .readfile import OpenedFile
 
 EXT = "KHR_gaussian_splatting"
 GLB_MAGIC = b"glTF"
@@ -78,17 +79,17 @@ def _glb(path, data: bytes):
 
 def _load(path):
     """(glTF JSON dict, the .glb BIN chunk or None)."""
-    size = file_size(path)
-    if size > MAX_FILE:
-        raise SplatFormatError(path, f"file is {size} bytes, more than {MAX_FILE}")
-    with open(path, "rb") as f:
-        head = f.read(4)
-        if head == GLB_MAGIC:
-            text, binary = _glb(path, head + f.read())
-        elif size > MAX_JSON:
-            raise SplatFormatError(path, f"glTF JSON is {size} bytes, more than {MAX_JSON}")
-        else:
-            text, binary = head + f.read(), None
+    with OpenedFile(path) as f:
+        if f.size > MAX_FILE:
+            raise SplatFormatError(path, f"file is {f.size} bytes, more than {MAX_FILE}")
+        if f.read_at(0, 4) != GLB_MAGIC and f.size > MAX_JSON:
+            raise SplatFormatError(path, f"glTF JSON is {f.size} bytes, more than {MAX_JSON}")
+        data = f.read_rest(0)
+        f.check_unchanged()
+    if data[:4] == GLB_MAGIC:
+        text, binary = _glb(path, data)
+    else:
+        text, binary = data, None
     return json_object(path, text, "glTF JSON"), binary
 
 
@@ -156,14 +157,17 @@ class _Buffers:
             raise SplatFormatError(self.path, f"buffers[{index}].uri {name!r} leaves the glTF's folder")
         local = os.path.join(os.path.dirname(os.fspath(self.path)), name)
         try:  # the error names the glTF, the file the user opened, and then its buffer file
-            size = file_size(local)
+            with OpenedFile(local) as f:
+                if f.size < length:
+                    raise SplatFormatError(self.path, f"buffers[{index}] file {name} holds fewer "
+                                                      f"than the {length} bytes it declares")
+                data = f.read_exact(0, length)
+                f.check_unchanged()
+                return data
         except SplatFormatError as exc:
+            if exc.path == os.fspath(self.path):
+                raise
             raise SplatFormatError(self.path, f"buffers[{index}] file {name}: {exc.reason}") from None
-        if size < length:
-            raise SplatFormatError(self.path, f"buffers[{index}] file {name} holds fewer than the "
-                                              f"{length} bytes it declares")
-        with open(local, "rb") as f:
-            return f.read(length)
 
 
 def _accessor(path, doc, buffers, index, name, width, count=None) -> np.ndarray:

@@ -5,11 +5,13 @@ unknown extra properties are ignored. f_rest is channel-major in the file
 (f_rest_k, f_rest_{k+K}, f_rest_{k+2K} are r, g, b of coefficient k) and becomes
 SplatSet.sh_rest (N, K, 3). Axis convention: RDF (COLMAP camera frame).
 
-Speed: the binary body is memory-mapped as a structured array (plyheader.read_body),
-and each attribute group is copied out through a strided view (one copy per group,
-in float32), so a 1M-splat degree-3 file costs a few hundred milliseconds.
-Not plyfile: its reading is the same memory map, but its header parser has no size
-bound (docs/DESIGN.md, "PLY without plyfile"; bench/plyfile_bench.py).
+Speed: the binary body is read block by block (plyheader.Records: 2048 records into one
+reused buffer; never a memory map, which a file shrinking mid-read turns into SIGBUS), and
+each block's attribute groups are copied out through strided views while the block is in
+the CPU's cache, so a 1M-splat degree-3 file costs a few hundred milliseconds and the body
+is never held whole.
+Not plyfile: its header parser has no size bound (docs/DESIGN.md, "PLY without plyfile";
+bench/plyfile_bench.py).
 """
 from __future__ import annotations
 
@@ -18,7 +20,9 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, RENDER_MAX_DEGREE, FILE_MAX_DEGREE, SplatSet, file_sh_degree, sh_coeff_count
 from ._common import check_budget, logit, normalize_quats_, sigmoid_, write_file
-from .plyheader import parse_header, read_body
+from . import readfile
+from .plyheader import element_records, parse_header, read_body
+from .readfile import OpenedFile
 
 POS = ("x", "y", "z")
 SCALE = ("scale_0", "scale_1", "scale_2")
@@ -66,13 +70,23 @@ def _jobs(rec: np.ndarray, names, out: np.ndarray) -> list:
     return [(rec[name], out[:, i]) for i, name in enumerate(names)]
 
 
-def gather(rec: np.ndarray, groups, k: int = 0, keep: int = 0):
+def _record_blocks(rec):
+    """(first index, records) blocks of a structured array, or of plyheader.Records as they
+    are read from the file."""
+    if isinstance(rec, np.ndarray):
+        return ((i, rec[i:i + BLOCK]) for i in range(0, rec.shape[0], BLOCK))
+    return rec.blocks()
+
+
+def gather(rec, groups, k: int = 0, keep: int = 0):
     """One pass over the records, block by block, filling every group at once.
 
-    groups: [(field names, dtype)] -> contiguous (N, len(names)) arrays. With k > 0 also
-    returns the channel-major f_rest (3 * k fields) as (N, keep, 3) coefficient-major SH,
-    stored as a view of coefficient planes (keep, N, 3): each sh_rest[:, j] is one
-    contiguous (N, 3) array, which Blender's attribute upload takes without a copy.
+    rec: a structured array, or plyheader.Records (the file read block by block: the body
+    is never held whole). groups: [(field names, dtype)] -> contiguous (N, len(names))
+    arrays. With k > 0 also returns the channel-major f_rest (3 * k fields) as (N, keep, 3)
+    coefficient-major SH, stored as a view of coefficient planes (keep, N, 3): each
+    sh_rest[:, j] is one contiguous (N, 3) array, which Blender's attribute upload takes
+    without a copy.
     Why blocks: a separate strided pass per group pulls every cache line of the 248-byte
     records once per group; one blocked pass reads them once (measured 2-4x faster for
     the SH of 1M degree-3 records than a direct strided transpose)."""
@@ -81,20 +95,21 @@ def gather(rec: np.ndarray, groups, k: int = 0, keep: int = 0):
     rest = np.empty((keep, n, 3), np.float32).transpose(1, 0, 2)
     if n == 0:
         return outs, rest
-    jobs = [job for (names, _), out in zip(groups, outs) for job in _jobs(rec, names, out)]
     names = rest_names(3 * k)
-    sh_view = _block_view(rec, names) if keep else None
-    if keep and sh_view is None:
-        jobs += [(rec[names[c * k + j]], rest[:, j, c]) for c in range(3) for j in range(keep)]
-    elif keep:
-        sh_view = sh_view.reshape(n, 3, k)
-        tmp = np.empty((min(BLOCK, n), 3, k), sh_view.dtype)
-    for i in range(0, n, BLOCK):
-        b = min(BLOCK, n - i)
-        for src, dst in jobs:
-            np.copyto(dst[i:i + b], src[i:i + b], casting="unsafe")
-        if sh_view is not None:
-            np.copyto(tmp[:b], sh_view[i:i + b])
+    tmp = None
+    for i, block in _record_blocks(rec):
+        b = block.shape[0]
+        for (group, _), out in zip(groups, outs):
+            for src, dst in _jobs(block, group, out[i:i + b]):
+                np.copyto(dst, src, casting="unsafe")
+        sh_view = _block_view(block, names) if keep else None
+        if keep and sh_view is None:
+            for c in range(3):
+                for j in range(keep):
+                    np.copyto(rest[i:i + b, j, c], block[names[c * k + j]], casting="unsafe")
+        elif keep:
+            tmp = np.empty((b, 3, k), sh_view.dtype) if tmp is None or tmp.shape[0] < b else tmp
+            np.copyto(tmp[:b], sh_view.reshape(b, 3, k))
             np.copyto(rest[i:i + b], tmp[:b, :, :keep].transpose(0, 2, 1), casting="unsafe")
     return outs, rest
 
@@ -142,7 +157,16 @@ def decode_vertices(path, rec: np.ndarray, max_degree: int = 3) -> SplatSet:
 
 
 def read_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
-    header = parse_header(path)
+    with OpenedFile(path) as f:
+        header = parse_header(f)
+        rec = _vertex_records(path, f, header, max_splats)
+        splats = decode_vertices(path, rec, max_degree)  # reads a binary body as it decodes
+        f.check_unchanged()
+    splats.antialiased = antialiased_by_comments(header.comments)
+    return splats
+
+
+def _vertex_records(path, f: OpenedFile, header, max_splats):
     vertex = header.element("vertex")
     if vertex is None:
         raise SplatFormatError(path, "PLY has no vertex element")
@@ -153,10 +177,10 @@ def read_ply(path, max_degree: int = 3, max_splats=None) -> SplatSet:
                                      "as one, or bake one moment with `convert --time T`")
     rest = sum(1 for name in vertex.names() if name.startswith("f_rest_"))
     check_budget(path, vertex.count, rest, max_splats)
-    body = read_body(path, header)
-    splats = decode_vertices(path, body["vertex"], max_degree)
-    splats.antialiased = antialiased_by_comments(header.comments)
-    return splats
+    if header.encoding == "ascii":
+        return read_body(f, header)["vertex"]
+    per_block = min(BLOCK, readfile.BLOCK // max(1, vertex.dtype("<").itemsize))  # 0 properties: 0 bytes
+    return element_records(f, header, "vertex", per_block)
 
 
 # The PLY header comments that mark a capture trained with anti-aliasing, as splat-transform

@@ -2,7 +2,8 @@
 
 Only what splat files use is supported: scalar properties (no lists) in binary
 little/big endian or ascii bodies. Every count is checked against the file size
-before anything is allocated from it.
+before anything is allocated from it. Header and body come through one OpenedFile
+(readfile.py): the body is read into arrays this process owns, never memory-mapped.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SplatFormatError
-from ._common import file_size
+from .readfile import OpenedFile
 
 MAX_HEADER = 1 << 20  # a splat header is a few KB; refuse to scan megabytes for end_header
 
@@ -52,9 +53,9 @@ class Header:
         return next((e for e in self.elements if e.name == name), None)
 
 
-def _read_header_text(path, size: int) -> tuple[str, int]:
-    with open(path, "rb") as f:
-        head = f.read(min(size, MAX_HEADER))
+def _read_header_text(f: OpenedFile) -> tuple[str, int]:
+    path = f.path
+    head = f.read_at(0, min(f.size, MAX_HEADER))
     if not (head.startswith(b"ply\n") or head.startswith(b"ply\r")):
         raise SplatFormatError(path, "not a PLY file (missing 'ply' magic)")
     for marker in (b"end_header\r\n", b"end_header\n", b"end_header\r"):
@@ -68,9 +69,9 @@ def _read_header_text(path, size: int) -> tuple[str, int]:
     raise SplatFormatError(path, "PLY header has no end_header (truncated or not a PLY)")
 
 
-def parse_header(path) -> Header:
-    size = file_size(path)
-    text, body_offset = _read_header_text(path, size)
+def parse_header(f: OpenedFile) -> Header:
+    path, size = f.path, f.size
+    text, body_offset = _read_header_text(f)
     encoding, elements, comments = None, [], []
     for lineno, raw in enumerate(text.splitlines()[1:], start=2):
         words = raw.split()
@@ -141,28 +142,65 @@ def _check_body_size(path, header: Header) -> None:
                   f"but the file holds {available} after the header")
 
 
-def read_body(path, header: Header) -> dict:
-    """Every element as a structured numpy array: binary bodies are memory-mapped (read-only,
-    no up-front copy; decoders copy out what they keep), ascii bodies are parsed."""
+def read_body(f: OpenedFile, header: Header) -> dict:
+    """Every element as a structured numpy array this process owns (binary bodies are read
+    with readinto, checked block by block; ascii bodies are parsed), then the file is checked
+    unchanged since it was opened, so a file rewritten mid-read is an error, never a mix."""
     if header.encoding == "ascii":
-        return _read_ascii(path, header)
-    out, offset = {}, header.body_offset
-    for e in header.elements:
-        dt = e.dtype(header.encoding)
-        if e.count:
-            out[e.name] = np.memmap(path, dtype=dt, mode="r", offset=offset, shape=(e.count,))
-        else:
-            out[e.name] = np.zeros(0, dt)
-        offset += e.count * dt.itemsize
+        out = _read_ascii(f, header)
+    else:
+        out, offset = {}, header.body_offset
+        for e in header.elements:
+            dt = e.dtype(header.encoding)
+            out[e.name] = f.read_array(dt, e.count, offset)
+            offset += e.count * dt.itemsize
+    f.check_unchanged()
     return out
 
 
-def _read_ascii(path, header: Header) -> dict:
+class Records:
+    """A binary element's records read block by block into one reused buffer: what
+    ply.gather walks, so an INRIA body is never held whole (the decoded arrays are the only
+    copy) and each block is copied out while it is still in the CPU's cache.
+    Quacks like the structured array for what gather and decode_vertices ask (dtype, shape)."""
+
+    def __init__(self, f: OpenedFile, dtype: np.dtype, count: int, offset: int, per_block: int):
+        self.f, self.dtype, self.shape = f, dtype, (count,)
+        self.offset, self.per_block = offset, max(1, per_block)
+
+    def blocks(self):
+        """(first record index, the records) for each block, in the same reused buffer."""
+        n, size = self.shape[0], self.dtype.itemsize
+        buf = np.empty(min(self.per_block, n), self.dtype)
+        for i in range(0, n, self.per_block):
+            b = min(self.per_block, n - i)
+            self.f.readinto(buf[:b], self.offset + i * size)
+            yield i, buf[:b]
+
+
+def element_records(f: OpenedFile, header: Header, name: str, per_block: int) -> Records:
+    """One binary element as Records; the caller calls f.check_unchanged() after walking it."""
+    offset = header.body_offset
+    for e in header.elements:
+        dt = e.dtype(header.encoding)
+        if e.name == name:
+            return Records(f, dt, e.count, offset, per_block)
+        offset += e.count * dt.itemsize
+    raise KeyError(name)
+
+
+def read_elements(path) -> tuple[Header, dict]:
+    """(header, body) of a PLY file by path."""
+    with OpenedFile(path) as f:
+        header = parse_header(f)
+        return header, read_body(f, header)
+
+
+def _read_ascii(f: OpenedFile, header: Header) -> dict:
     """One line per element row; numpy's C parser (loadtxt with max_rows) keeps this fast
     and memory-light compared with splitting the whole body into Python strings."""
-    with open(path, "rb") as f:
-        f.seek(header.body_offset)
-        text = io.StringIO(f.read().decode("ascii", errors="replace"))
+    path = f.path
+    text = io.StringIO(f.read_rest(header.body_offset).decode("ascii", errors="replace"))
     out = {}
     for e in header.elements:
         width = len(e.props)

@@ -18,6 +18,7 @@ decodes of the same files (testdata *_sog.peer.ply, tests/core/formats/test_form
 """
 from __future__ import annotations
 
+import io
 import math
 import os
 import tempfile
@@ -28,6 +29,7 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, SplatSet, sh_coeff_count
 from ._common import check_budget, file_size, json_object, normalize_quats_
+from .readfile import OpenedFile
 from .webp import read_rgba
 
 MAX_SPLATS = 1 << 28          # WebP's 16383 x 16383 texel ceiling
@@ -52,15 +54,21 @@ class _Files:
         self.zip = None
         self.tmp = None
         if not is_sog_meta(path):
+            # the zip is read whole into memory first (it is the compressed size), so a file
+            # rewritten while its members inflate is one error here, not a half-read member
+            with OpenedFile(path) as f:
+                self.packed = f.size
+                data = f.read_rest(0)
+                f.check_unchanged()
             try:
-                self.zip = zipfile.ZipFile(path)
+                self.zip = zipfile.ZipFile(io.BytesIO(data))
             except (zipfile.BadZipFile, ValueError) as exc:
-                raise SplatFormatError(path, f"not a SOG zip: {exc}") from None
+                raise SplatFormatError(path, f"not a SOG zip: {_reason(exc)}") from None
             self._check_zip()
             self.tmp = tempfile.TemporaryDirectory(prefix="splatline-sog-")
 
     def _check_zip(self) -> None:
-        packed = file_size(self.path)
+        packed = self.packed
         total = sum(info.file_size for info in self.zip.infolist())
         if total > DEFLATE_RATIO * packed + (1 << 20):
             raise SplatFormatError(self.path, f"zip entries claim {total} bytes, more than "
@@ -86,9 +94,9 @@ class _Files:
             with self.zip.open(info) as f:
                 data = f.read(info.file_size + 1)
         except RuntimeError as exc:  # zipfile: "File ... is encrypted, password required"
-            raise SplatFormatError(self.path, f"cannot read {name}: {exc}") from None
+            raise SplatFormatError(self.path, f"cannot read {name}: {_reason(exc)}") from None
         except (zipfile.BadZipFile, NotImplementedError, OSError, EOFError, ValueError) as exc:
-            raise SplatFormatError(self.path, f"cannot inflate {name}: {exc}") from None
+            raise SplatFormatError(self.path, f"cannot inflate {name}: {_reason(exc)}") from None
         return data
 
     def size(self, name) -> int:
@@ -102,10 +110,12 @@ class _Files:
     def meta(self) -> bytes:
         if self.zip:
             return self._member("meta.json", MAX_META)
-        if file_size(self.path) > MAX_META:
-            raise SplatFormatError(self.path, f"meta.json is larger than {MAX_META} bytes")
-        with open(self.path, "rb") as f:
-            return f.read()
+        with OpenedFile(self.path) as f:
+            if f.size > MAX_META:
+                raise SplatFormatError(self.path, f"meta.json is larger than {MAX_META} bytes")
+            data = f.read_rest(0)
+            f.check_unchanged()
+        return bytes(data)
 
     def image(self, name, max_pixels: int) -> np.ndarray:
         if not self.zip:
@@ -116,6 +126,17 @@ class _Files:
         with open(local, "wb") as f:  # a lossless WebP never needs much over 4 bytes a pixel
             f.write(self._member(name, 8 * max_pixels + 65536))
         return read_rgba(local, max_pixels, self.label(name))
+
+
+def _reason(exc: Exception) -> str:
+    """An exception's text, or what its type means when it has none (zlib's EOFError for a
+    member whose compressed data ends early carries no message)."""
+    text = str(exc).strip()
+    if text:
+        return text
+    if isinstance(exc, EOFError):
+        return "compressed data ends early (the file is truncated or corrupt)"
+    return type(exc).__name__
 
 
 def _number_list(path, meta, key, sub, length=None) -> np.ndarray:

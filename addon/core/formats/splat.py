@@ -12,19 +12,21 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RDF, SplatSet
-from ._common import check_budget, file_size, normalize_quats_, write_file
+from ._common import check_budget, normalize_quats_, write_file
+from .readfile import OpenedFile
 
 RECORD = np.dtype([("position", "<f4", 3), ("scale", "<f4", 3), ("rgba", "u1", 4), ("rot", "u1", 4)])
 assert RECORD.itemsize == 32
 
 
 def read_splat(path, max_degree: int = 3, max_splats=None) -> SplatSet:
-    size = file_size(path)
-    if size % RECORD.itemsize:
-        raise SplatFormatError(path, f"truncated or not a .splat: {size} bytes is not a multiple of "
-                                     f"{RECORD.itemsize}")
-    check_budget(path, size // RECORD.itemsize, 0, max_splats)
-    rec = np.fromfile(path, RECORD)
+    with OpenedFile(path) as f:
+        if f.size % RECORD.itemsize:
+            raise SplatFormatError(path, f"truncated or not a .splat: {f.size} bytes is not a multiple "
+                                         f"of {RECORD.itemsize}")
+        check_budget(path, f.size // RECORD.itemsize, 0, max_splats)
+        rec = f.read_array(RECORD, f.size // RECORD.itemsize, 0)
+        f.check_unchanged()
     n = rec.shape[0]
     rgba = rec["rgba"].astype(np.float32) / np.float32(255.0)
     s = SplatSet.allocate(0, 0, AXES_RDF)

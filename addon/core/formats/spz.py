@@ -42,7 +42,8 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RDF, AXES_RFU, AXES_RUB, FILE_MAX_DEGREE, RENDER_MAX_DEGREE, SplatSet, sh_coeff_count
-from ._common import check_budget, normalize_quats_, read_bytes
+from ._common import check_budget, normalize_quats_
+from .readfile import read_whole
 
 MAGIC = b"NGSP"
 MAX_FILE = 1 << 33
@@ -174,7 +175,7 @@ def _unzstd_bounded(path, chunk: bytes, expect: int) -> np.ndarray:
 
 
 def read_spz(path, max_degree: int = 3, max_splats=None) -> SplatSet:
-    data = read_bytes(path, MAX_FILE)
+    data = read_whole(path, MAX_FILE)
     if data[:2] == b"\x1f\x8b":
         raw = _gunzip_bounded(path, data, max_splats)
         head = _parse_header(path, raw[:16], (1, 2, 3))

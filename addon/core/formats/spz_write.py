@@ -88,6 +88,18 @@ def _sh(rest: np.ndarray) -> bytes:
     return np.clip(q, 0, 255).astype(np.uint8).tobytes()
 
 
+def scale_note(splats: SplatSet) -> str | None:
+    """A byte holds (log s + 10) * 16, so spz stores linear scales from e^-10 (4.5e-05) to
+    e^5.94 (379) only; the writer clamps the rest. Say how many splats that changed."""
+    codes = _round((np.log(np.maximum(splats.scales.astype(np.float64), 1e-30)) + 10.0) * 16.0)
+    low, high = int((codes < 0).any(axis=1).sum()), int((codes > 255).any(axis=1).sum())
+    if not (low or high):
+        return None
+    lo, hi = np.exp(-10.0), np.exp(255 / 16 - 10.0)
+    return (f"{low + high} splats have scales outside what spz stores ({lo:.2g} to {hi:.3g}): "
+            f"{high} clamped down to {hi:.3g}, {low} clamped up to {lo:.2g}")
+
+
 def encode_blocks(splats: SplatSet) -> tuple[int, list]:
     """(fractional bits, the six attribute blocks in file order)."""
     frac = _fractional_bits(splats.positions)
@@ -123,9 +135,11 @@ def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
     return head + toc + b"".join(streams)
 
 
-def write_spz(path, splats: SplatSet, version: int = 4) -> None:
+def write_spz(path, splats: SplatSet, version: int = 4) -> list:
+    """Write the file; returns its notes (scale_note: scales spz had to clamp)."""
     try:
         data = encode_spz(splats, version)
     except SplatFormatError as exc:
         raise SplatFormatError(path, exc.reason) from None
     write_file(path, data)
+    return [note for note in (scale_note(splats),) if note]

@@ -38,7 +38,8 @@ class Format:
     magic_required  a file with one of its extensions but none of its magic is refused
     reader      "module:function" in this package (imported on first use) or a callable:
                 (path, max_degree, max_splats) -> SplatSet
-    writer      the same for (path, splats, **writer_args, **options) -> None; None: read only
+    writer      the same for (path, splats, **writer_args, **options) -> notes (a list of lines
+                saying what the format changed: clamped values; None when nothing); None: read only
     writer_args fixed keywords for the writer ((("binary_container", False),))
     options     the write options formats.write passes on (spz "version"); a writer without
                 any is called without the caller's options
@@ -70,8 +71,11 @@ class Format:
     def read(self, path, max_degree: int, max_splats):
         return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats)
 
-    def write(self, path, splats, options: dict) -> None:
-        _resolve(self.writer)(path, splats, **dict(self.writer_args), **(options if self.options else {}))
+    def write(self, path, splats, options: dict) -> list:
+        """The writer's notes: one line each for what the format could not keep as it was
+        (spz's clamped scales); a writer that returns None changed nothing."""
+        notes = _resolve(self.writer)(path, splats, **dict(self.writer_args), **(options if self.options else {}))
+        return list(notes or [])
 
 
 def _resolve(target):

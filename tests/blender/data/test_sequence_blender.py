@@ -17,6 +17,7 @@ from testing.sequence_files import write_frames
 
 N_FRAMES = 5
 FIELDS = ("positions", "scales", "rotations", "opacities", "sh_dc", "sh_rest")
+CORRUPT_PLY = b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nend_header\n"
 
 
 def item_of(bpy, obj, frame):
@@ -152,8 +153,9 @@ def test_missing_frame_holds_previous_and_is_reported_once(bpy_empty, frames, se
     assert len(warnings) == 1
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])
     assert sequence_source.report_for(obj) == ""
-    # a corrupt frame is held over as well, and its reason reported
-    paths[3].write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nend_header\n")
+    # a corrupt frame is held over as well, and its reason reported (the read-ahead thread
+    # may be reading this file as it is rewritten: see the next test)
+    paths[3].write_bytes(CORRUPT_PLY)
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[1])
     assert "frame_0004.ply" in sequence_source.report_for(obj)
     # no earlier frame to hold: the next available one shows
@@ -230,6 +232,41 @@ def test_cache_budget_and_read_ahead_thread_lifetime(bpy_empty, frames, seq_impo
     finally:
         sequence_source.register()
     assert_same(item_of(bpy_empty, obj, 4).splats, truth[3])  # a fresh runtime after re-register
+
+
+def test_a_frame_rewritten_while_the_read_ahead_reads_it_is_held(bpy_empty, frames, seq_import, monkeypatch):
+    """The 5.2 worker crash (issue 41): test_missing_frame_holds_previous_and_is_reported_once
+    rewrites frame_0004.ply in place (write_bytes: truncate, then 56 bytes) while the read-ahead
+    thread may still be decoding it (it loads a frame the main thread is also loading, as
+    wait_if_loading only waits for a decode already started). The memory-mapped body then
+    raised SIGBUS in that thread, killing the worker. The same rewrite, landed inside the
+    thread's read by readfile.after_block: the thread's read fails, the process lives, and
+    the frame shown holds the previous one until the file is whole again."""
+    from addon.blender.data import sequence_source
+    from addon.core.formats import readfile
+
+    paths, truth = frames
+    obj = seq_import(paths[0].parent)
+    hit = []
+
+    def rewrite_in_thread(path, k):
+        if not hit and threading.current_thread().name == "splatline-readahead" \
+                and os.path.samefile(path, paths[2]):
+            hit.append(k)
+            paths[2].write_bytes(CORRUPT_PLY)
+    monkeypatch.setattr(readfile, "BLOCK", 256)
+    monkeypatch.setattr(readfile, "after_block", rewrite_in_thread)
+    item_of(bpy_empty, obj, 1)  # reads ahead frames 2-5
+    rt = sequence_source.runtime()
+    assert rt.read_ahead.wait_idle(30)
+    assert hit == [0] and rt.read_ahead.running
+    assert (str(paths[2]), 2) not in rt.cache
+    assert_same(item_of(bpy_empty, obj, 3).splats, truth[1])
+    report = sequence_source.report_for(obj)
+    assert "frame_0003.ply" in report and "holding frame 1" in report
+    write(paths[2], truth[2])
+    assert_same(item_of(bpy_empty, obj, 3).splats, truth[2])
+    assert sequence_source.report_for(obj) == ""
 
 
 def test_import_operator_from_folder_or_file(bpy_empty, tmp_path):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from addon.core.formats import read, read_with_report
-from addon.core.formats.plyheader import parse_header, read_body
+from addon.core.formats.plyheader import read_elements
 from addon.core.sh import C0
 
 N_GUITAR = 90854
@@ -50,7 +50,7 @@ def test_compressed_ply_matches(testdata, guitar):
     +-sqrt(1/2), half step h, and the derived largest component is off by at most 3h."""
     c = read(testdata / "guitar.compressed.ply")
     path = testdata / "guitar.compressed.ply"
-    chunks = read_body(path, parse_header(path))["chunk"]
+    chunks = read_elements(path)[1]["chunk"]
     owner = np.arange(N_GUITAR) // 256
     levels = np.array([2047, 1023, 2047], np.float64)
     for lo, hi, attr, log in (("min_{}", "max_{}", "positions", False),

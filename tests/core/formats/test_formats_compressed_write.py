@@ -7,12 +7,12 @@ import pytest
 
 from addon.core.formats import detect_format, read, write
 from addon.core.formats.compressed_ply_write import _morton_order
-from addon.core.formats.plyheader import parse_header, read_body
+from addon.core.formats.plyheader import read_elements
 from addon.core.sh import C0
 
 
 def _half_steps(path, n, names, bits):
-    chunks = read_body(path, parse_header(path))["chunk"]
+    chunks = read_elements(path)[1]["chunk"]
     owner = np.arange(n) // 256
     lo = np.stack([chunks[f"min_{a}"] for a in names], 1)[owner].astype(np.float64)
     hi = np.stack([chunks[f"max_{a}"] for a in names], 1)[owner].astype(np.float64)

@@ -1,7 +1,8 @@
 """Command line: python -m addon {info,convert,import,render,demo} ... (from the checkout), or
 `splatline ...` once installed with pip (pyproject.toml: the console script is `console`).
 
-Each subcommand lives in addon/cli/<name>.py with configure(parser) and run(args) -> int.
+Each subcommand lives in addon/cli/<name>.py (import: import_files.py) with configure(parser)
+and run(args) -> int.
 Errors a user can cause exit non-zero with one line naming the file and the problem.
 """
 from __future__ import annotations
@@ -39,6 +40,15 @@ COMMANDS = {
 }
 
 
+# A command's module is named for it, but for `import`, a Python keyword (no module can be
+# imported by that name with an import statement).
+_MODULES = {"import": "import_files"}
+
+
+def _command_module(command: str):
+    return importlib.import_module(f".cli.{_MODULES.get(command, command)}", __package__)
+
+
 def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
     # allow_abbrev=False: `--sh-degre` is a misspelling to report, not --sh-degree; an
     # abbreviation accepted today would change meaning when a longer option is added.
@@ -46,7 +56,7 @@ def _parser(prog: str = "python -m addon") -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, help_text in COMMANDS.items():
-        module = importlib.import_module(f".cli.{name}", __package__)
+        module = _command_module(name)
         module.configure(command := sub.add_parser(name, help=help_text, description=help_text,
                                                    allow_abbrev=False))
         command.set_defaults(command_parser=command)
@@ -105,7 +115,7 @@ def main(argv=None, prog: str = "python -m addon") -> int:
     args, unknown = _parser(prog).parse_known_args(argv)
     if unknown:  # the sub-command's usage, not the top level's, and a guess at a misspelling
         _unrecognized(args.command_parser, unknown)
-    module = importlib.import_module(f".cli.{args.command}", __package__)
+    module = _command_module(args.command)
     budget.set_max_memory(args.max_memory)
     with _sigterm_as_sigint() as terminated:
         rc = _run(module, args)

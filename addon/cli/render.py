@@ -31,7 +31,7 @@ import time
 from . import UsageError, UserError
 from . import framing_options
 from .capture_scene import is_blend
-from .render_job import render_animation
+from .render_job import is_movie, render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
 from ..core import budget
@@ -320,14 +320,18 @@ def run(args) -> int:
           f"at {scene.render.resolution_x}x{scene.render.resolution_y} "
           f"{scene.render.resolution_percentage}% to {args.out}", flush=True)
     start = time.perf_counter()
-    times, stopped = render_animation(bpy, scene, total, args.blend)
+    times, stopped, movie = render_animation(bpy, scene, total, args.blend)
     if stopped:
-        print(f"interrupted: {len(times)} finished frame(s) kept in {args.out}", flush=True)
+        if is_movie(scene):  # the movie holds the frames that finished, and its name says which
+            kept = f"wrote {movie}" if movie else "no movie written (an earlier one is as it was)"
+            print(f"interrupted: {kept}", flush=True)
+        else:
+            print(f"interrupted: {len(times)} finished frame(s) kept in {args.out}", flush=True)
         return 130
     median = statistics.median(times) if times else 0.0
     print(f"done: {len(times)} frame(s) in {time.perf_counter() - start:.2f} s, "
           f"median {median:.3f} s per frame", flush=True)
-    if times and media_type(scene.render.image_settings) == "VIDEO":
+    if movie:
         # Blender names the movie from the range: frame_0001-0120.mp4 for frame_#### over 1-120
-        print(f"wrote {scene.render.frame_path(frame=scene.frame_start)}", flush=True)
+        print(f"wrote {movie}", flush=True)
     return 0

@@ -304,8 +304,12 @@ def _claimed(scene):
         return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        os.write(fd, json.dumps({"pid": os.getpid(), "pattern": pattern,
-                                 "frames": [mine.start, mine.stop, mine.step]}).encode())
+        try:
+            os.write(fd, json.dumps({"pid": os.getpid(), "pattern": pattern,
+                                     "frames": [mine.start, mine.stop, mine.step]}).encode())
+        except OSError as exc:  # a full disk: the error names the folder (nothing written yet)
+            exc.filename = folder
+            raise
         atomic.register_temporary(lock)
         os.replace(tmp, lock)
         for name in sorted(os.listdir(folder)):

@@ -134,7 +134,8 @@ class TemporaryFrames:
         try:
             if what is None:
                 atomic.sync_file(tmp)
-                os.replace(tmp, final)
+                with atomic.replacing(final):
+                    os.replace(tmp, final)
         except OSError as exc:
             what = exc.strerror or str(exc)
         if what is not None:
@@ -180,7 +181,8 @@ class TemporaryFrames:
             if final is None or os.path.lexists(final):
                 self._remove(tmp)
                 return None
-        os.replace(tmp, final)
+        with atomic.replacing(final):
+            os.replace(tmp, final)
         self.pending.discard(tmp)
         atomic.forget_temporary(tmp)
         return final

@@ -111,11 +111,35 @@ def parse_resolution(text: str) -> tuple[int, int]:
     return width, height
 
 
-def check_frame_memory(what: str, width: int, height: int) -> None:
-    """The memory budget on the frame buffers of a width x height render (core/budget.py)."""
-    budget.check(what, budget.frame_bytes(width, height), "--max-memory",
+def check_frame_memory(what: str, width: int, height: int, splats=(0, 0)) -> None:
+    """The memory budget on the frame buffers of a width x height render, and the renderer's
+    buffers for splats (count, higher-SH floats of the largest degree) (core/budget.py)."""
+    count, rest = splats
+    engine = f", the renderer's buffers for {count} splats" if count else ""
+    budget.check(what, budget.frame_bytes(width, height) + budget.render_bytes(count, rest), "--max-memory",
                  f"{width}x{height} frame buffers: RGBA and depth, float32, "
-                 f"{budget.FRAME_COPIES} copies")
+                 f"{budget.FRAME_COPIES} copies{engine}")
+
+
+def _plan_capture_memory(scene) -> None:
+    """A capture's read is checked for all that follows it: Blender's copy, the renderer's
+    buffers and the frame's (core/budget.after_read)."""
+    from ..blender.data.pointcloud import blender_bytes_for
+    r = scene.render
+    frame = budget.frame_bytes(r.resolution_x * r.resolution_percentage // 100,
+                               r.resolution_y * r.resolution_percentage // 100)
+    budget.after_read(lambda n, rest: blender_bytes_for(n, rest) + budget.render_bytes(n, rest) + frame)
+
+
+def _scene_splats(bpy) -> tuple[int, int]:
+    """(splats in the scene's splat objects, the most higher-SH floats a splat of them has)."""
+    from ..blender.data.pointcloud import is_splat_object, sh_count_in
+    count = rest = 0
+    for obj in bpy.context.scene.objects:
+        if is_splat_object(obj, with_splat_data=True):
+            count += len(obj.data.points)
+            rest = max(rest, 3 * sh_count_in(obj.data.attributes))
+    return count, rest
 
 
 def set_engine_option(settings, text: str) -> None:
@@ -204,7 +228,7 @@ def _prepare(bpy, args):
     r = scene.render
     check_frame_memory(f"--resolution {args.resolution.strip()}" if args.resolution else
                        f"{args.blend}: its resolution", r.resolution_x * r.resolution_percentage // 100,
-                       r.resolution_y * r.resolution_percentage // 100)
+                       r.resolution_y * r.resolution_percentage // 100, _scene_splats(bpy))
     if not args.keep_stamp:
         for field in UNREPRODUCIBLE_STAMPS:
             setattr(scene.render, field, False)
@@ -303,6 +327,7 @@ def _open_scene(args):
         frames = capture_scene.seconds_range(camera, args.framing, frames)
         bpy = blender_session.start()
         _set_frame_size(bpy.context.scene, args)  # the framing fits the frame's aspect
+        _plan_capture_memory(bpy.context.scene)
         capture_scene.build(bpy, args.blend, camera, frames, args.framing)
         if not args.format and not args.preset:
             args.format = "PNG"  # the factory scene's output would be an opaque 8-bit RGB

@@ -165,8 +165,12 @@ def blender_bytes(count: int, sh_degree: int) -> int:
     the whole higher SH), and 64 bytes for the helper mesh's vertex and Blender's own
     per-point data. Measured on bpy 5.0 (VmHWM over the call, 400,000 random splats):
     385 bytes a splat at degree 3 (this estimate: 536), 97 at degree 1 (248), 25 at 0 (176)."""
-    floats = 14 + 3 * sh_coeff_count(sh_degree)
-    return int(count) * (2 * 4 * floats + 64)
+    return blender_bytes_for(count, 3 * sh_coeff_count(sh_degree))
+
+
+def blender_bytes_for(count: int, rest_floats: int) -> int:
+    """blender_bytes by the higher-SH floats per splat (core/budget.after_read's terms)."""
+    return int(count) * (2 * 4 * (14 + int(rest_floats)) + 64)
 
 
 def new_pointcloud(name: str, splats: SplatSet) -> bpy.types.PointCloud:

@@ -251,6 +251,7 @@ class _StopOnSigint:
     def __exit__(self, *exc):
         for sig, old in self._old.items():
             signal.signal(sig, old)
+        stop.clear_stop()  # the stop was this job's: later reads (core/stop.check) go on
 
 
 def render_animation(bpy, scene, total: int, label: str) -> tuple[list[float], bool, str | None]:
@@ -268,8 +269,9 @@ def render_animation(bpy, scene, total: int, label: str) -> tuple[list[float], b
             raise UserError(f"{label}: {frames.failure}")
         if error is not None and not stop.stop_requested():
             raise UserError(f"{label}: {frames.failed_line(one_line(error))}") from None
-        movie = frames.finish_movie(stop.stop_requested(), label)
-    return progress.times, stop.stop_requested(), movie
+        stopped = stop.stop_requested()
+        movie = frames.finish_movie(stopped, label)
+    return progress.times, stopped, movie
 
 
 _RENDER_LOCK = re.compile(r"^\.splatline-render\.(\d+)\.lock$")

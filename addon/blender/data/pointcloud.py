@@ -14,6 +14,7 @@ import numpy as np
 
 import bpy
 
+from ...core import stop
 from ...core.formats._common import normalize_quats_
 from ...core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 from .native import mark_as_splats
@@ -300,6 +301,7 @@ def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
     base = _get(attributes, BASE, 4, n)
     planes = np.empty((sh_coeff_count(degree), n, 3), np.float32)
     for i in range(planes.shape[0]):
+        stop.check()  # a render's stop: 15 planes of 10M splats take seconds
         attributes[sh_name(i)].data.foreach_get("vector", planes[i].reshape(-1))
     rest = swap01(planes)  # consumers (GPU uploads, effects) expect a contiguous (N, K, 3)
     return SplatSet(

@@ -14,14 +14,17 @@ Frames reach their final names only by a rename (`TemporaryFrames`). Blender wri
 frame file itself, inside render.render, to the path its filepath pattern gives; the job
 points that pattern at a hidden temporary name in the same folder (`.frame_0001.PID.frametmp.png`
 for `frame_####`), and the render_write handler, which Blender calls once the file is
-written and closed, fsyncs it and renames it to the name the user's pattern gives. So a
-killed or failed render never leaves a cut file under a final name, and never touches an
-older frame of that name before the new one is whole. What remains: a kill -9 during
-Blender's write leaves that hidden `.NAME.PID.frametmp.EXT` (a catchable signal removes it,
-and the next render into the folder removes those of dead processes); Blender's own
-"Saved:" line names the temporary; movies (FFmpeg) are one growing file Blender writes itself, and stereo views (multiview)
-and the no-overwrite / placeholder options, whose checks Blender makes on the final name,
-keep Blender's own direct write.
+written and closed, reads it back (core/whole_file: Blender's PNG writer closes a cut file
+on a full disk and says "Saved:"), fsyncs it and renames it to the name the user's pattern
+gives; a frame that is not whole stops the job with one line. So a killed or failed render
+never leaves a cut file under a final name, and never touches an older frame of that name
+before the new one is whole. A movie (FFmpeg) is one file under such a hidden name too,
+renamed once Blender has closed it: whole, to its name; stopped, to the name of the frames
+it holds. What remains: a kill -9 during Blender's write leaves that hidden
+`.NAME.PID.frametmp.EXT` (a catchable signal removes it, and the next render into the folder
+removes those of dead processes); Blender's own "Saved:" line names the temporary; stereo
+views (multiview) and the no-overwrite / placeholder options, whose checks Blender makes on
+the final name, keep Blender's own direct write.
 """
 from __future__ import annotations
 

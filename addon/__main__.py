@@ -28,7 +28,7 @@ if "numpy" not in sys.modules and sys.argv[1:2] and sys.argv[1] not in BLAS_COMM
 import numpy as np  # noqa: E402 (after the thread count)
 
 from .cli import UsageError, UserError
-from .core import budget
+from .core import atomic, budget
 from .core.errors import SplatFormatError
 
 COMMANDS = {
@@ -120,9 +120,20 @@ def main(argv=None, prog: str = "python -m addon") -> int:
     with _sigterm_as_sigint() as terminated:
         rc = _run(module, args)
     if terminated and rc == 0:  # caught where Blender swallows exceptions (a handler): the work
-        print("interrupted (SIGTERM)", file=sys.stderr)  # finished whole, but still a stop
+        print(_interrupted("interrupted (SIGTERM)"), file=sys.stderr)  # finished whole, but still a stop
         return 130
     return rc
+
+
+def _interrupted(head: str = "interrupted") -> str:
+    """The interrupted line says what is on disk: 'interrupted' when the command replaced
+    nothing, else what it wrote (each whole: core/atomic.replacing), as the disk shows it."""
+    wrote = atomic.written()
+    if not wrote:
+        return head
+    if len(wrote) > 2:
+        return f"{head}: wrote {len(wrote)} files ({wrote[0]} ... {wrote[-1]}), each whole"
+    return f"{head}: wrote {' and '.join(wrote)}, whole"
 
 
 @contextlib.contextmanager
@@ -167,7 +178,7 @@ def _run(module, args) -> int:
         print(f"error: out of memory running {args.command!r}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # Ctrl+C, or SIGTERM (_sigterm_as_sigint)
-        print("interrupted", file=sys.stderr)
+        print(_interrupted(), file=sys.stderr)
         return 130
 
 

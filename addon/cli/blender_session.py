@@ -62,16 +62,17 @@ def save_blend(bpy, path) -> None:
                 os.unlink(stale)
             paths = bpy.context.preferences.filepaths
             versions, paths.save_version = paths.save_version, 0
-            try:
-                result = bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
-            finally:
-                paths.save_version = versions
+            with atomic.replacing(path):  # interrupted: "wrote" when the save got it in place
+                try:
+                    result = bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
+                finally:
+                    paths.save_version = versions
+                if "FINISHED" not in result:
+                    raise UserError(f"{path}: Blender could not save the .blend")
     except atomic.Claimed as exc:
         raise UserError(f"{path}: {exc}") from None
     except RuntimeError as exc:  # Blender reports a failed save as an error report
         raise UserError(f"{path}: cannot save: {' '.join(str(exc).split())}") from None
-    if "FINISHED" not in result:
-        raise UserError(f"{path}: Blender could not save the .blend")
 
 
 def _open(bpy, path) -> None:

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import sys
 
+from ..core import budget
 from ..core.dynamic import is_dynamic_file
 from ..core.errors import SplatFormatError
+from ..core.formats._common import splat_bytes
 from ..core.formats import format_for_output, read_with_report, table, write
 from ..core.select import select
 from ..core.validate import check_values
@@ -110,6 +112,9 @@ def run(args) -> int:
     edits.check(args)
     _check_inputs(args)
     check_output_file(args.output, f"the {fmt} output")
+    # the writer's encoding, and a merge's copy, counted by each read's own check
+    merged = 1 if len(args.input) > 1 else 0
+    budget.after_read(lambda n, rest: table.row(fmt).write_cost(n, rest) + merged * splat_bytes(n, rest))
     loaded = [item for path in args.input for item in _read(args, path)]
     splats = merge([s for s, _ in loaded]) if len(loaded) > 1 else loaded[0][0]
     total = sum(r.count_in_file for _, r in loaded)

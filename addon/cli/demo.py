@@ -125,7 +125,7 @@ def _clear_old_frames(folder: str) -> None:
 
 
 def _render_exr(bpy, scene) -> list[float]:
-    times, stopped = render_animation(bpy, scene, scene.frame_end - scene.frame_start + 1,
+    times, stopped, _ = render_animation(bpy, scene, scene.frame_end - scene.frame_start + 1,
                                       "render failed")
     if stopped:
         raise KeyboardInterrupt

@@ -53,6 +53,10 @@ def run(args) -> int:
 
     bpy = start()
     from ..blender.data.files import import_file_with_report
+    from ..blender.data.pointcloud import blender_bytes_for
+    from ..core import budget
+
+    budget.after_read(blender_bytes_for)  # Blender's copy, counted by each read's check
     from .capture_scene import use_capture_colours
 
     use_capture_colours(bpy.context.scene)  # a new scene: the capture's own colours, not AgX

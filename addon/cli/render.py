@@ -33,7 +33,7 @@ from . import framing_options
 from .capture_scene import is_blend
 from .framing_options import parse_frames
 from .options import add_axes, preset_names
-from .render_job import render_animation
+from .render_job import is_movie, render_animation
 from .writable import check_folder
 from ..blender.compat import media_type, set_file_format
 from ..core import budget
@@ -104,11 +104,35 @@ def parse_resolution(text: str) -> tuple[int, int]:
     return width, height
 
 
-def check_frame_memory(what: str, width: int, height: int) -> None:
-    """The memory budget on the frame buffers of a width x height render (core/budget.py)."""
-    budget.check(what, budget.frame_bytes(width, height), "--max-memory",
+def check_frame_memory(what: str, width: int, height: int, splats=(0, 0)) -> None:
+    """The memory budget on the frame buffers of a width x height render, and the renderer's
+    buffers for splats (count, higher-SH floats of the largest degree) (core/budget.py)."""
+    count, rest = splats
+    engine = f", the renderer's buffers for {count} splats" if count else ""
+    budget.check(what, budget.frame_bytes(width, height) + budget.render_bytes(count, rest), "--max-memory",
                  f"{width}x{height} frame buffers: RGBA and depth, float32, "
-                 f"{budget.FRAME_COPIES} copies")
+                 f"{budget.FRAME_COPIES} copies{engine}")
+
+
+def _plan_capture_memory(scene) -> None:
+    """A capture's read is checked for all that follows it: Blender's copy, the renderer's
+    buffers and the frame's (core/budget.after_read)."""
+    from ..blender.data.pointcloud import blender_bytes_for
+    r = scene.render
+    frame = budget.frame_bytes(r.resolution_x * r.resolution_percentage // 100,
+                               r.resolution_y * r.resolution_percentage // 100)
+    budget.after_read(lambda n, rest: blender_bytes_for(n, rest) + budget.render_bytes(n, rest) + frame)
+
+
+def _scene_splats(bpy) -> tuple[int, int]:
+    """(splats in the scene's splat objects, the most higher-SH floats a splat of them has)."""
+    from ..blender.data.pointcloud import is_splat_object, sh_count_in
+    count = rest = 0
+    for obj in bpy.context.scene.objects:
+        if is_splat_object(obj, with_splat_data=True):
+            count += len(obj.data.points)
+            rest = max(rest, 3 * sh_count_in(obj.data.attributes))
+    return count, rest
 
 
 def set_engine_option(settings, text: str) -> None:
@@ -206,7 +230,7 @@ def _prepare(bpy, args):
     r = scene.render
     check_frame_memory(f"--resolution {args.resolution.strip()}" if args.resolution else
                        f"{args.blend}: its resolution", r.resolution_x * r.resolution_percentage // 100,
-                       r.resolution_y * r.resolution_percentage // 100)
+                       r.resolution_y * r.resolution_percentage // 100, _scene_splats(bpy))
     if not args.keep_stamp:
         for field in UNREPRODUCIBLE_STAMPS:
             setattr(scene.render, field, False)
@@ -313,6 +337,7 @@ def _open_scene(args):
         _say_still(camera, frames)
         bpy = blender_session.start()
         _set_frame_size(bpy.context.scene, args)  # the framing fits the frame's aspect
+        _plan_capture_memory(bpy.context.scene)
         capture_scene.build(bpy, args.blend, camera, frames, args.framing, args.axes)
         if not args.format and not args.preset:
             args.format = "PNG"  # the factory scene's output would be an opaque 8-bit RGB
@@ -337,14 +362,18 @@ def run(args) -> int:
           f"at {scene.render.resolution_x}x{scene.render.resolution_y} "
           f"{scene.render.resolution_percentage}% to {args.out}", flush=True)
     start = time.perf_counter()
-    times, stopped = render_animation(bpy, scene, total, args.blend)
+    times, stopped, movie = render_animation(bpy, scene, total, args.blend)
     if stopped:
-        print(f"interrupted: {len(times)} finished frame(s) kept in {args.out}", flush=True)
+        if is_movie(scene):  # the movie holds the frames that finished, and its name says which
+            kept = f"wrote {movie}" if movie else "no movie written (an earlier one is as it was)"
+            print(f"interrupted: {kept}", flush=True)
+        else:
+            print(f"interrupted: {len(times)} finished frame(s) kept in {args.out}", flush=True)
         return 130
     median = statistics.median(times) if times else 0.0
     print(f"done: {len(times)} frame(s) in {time.perf_counter() - start:.2f} s, "
           f"median {median:.3f} s per frame", flush=True)
-    if times and media_type(scene.render.image_settings) == "VIDEO":
+    if movie:
         # Blender names the movie from the range: frame_0001-0120.mp4 for frame_#### over 1-120
-        print(f"wrote {scene.render.frame_path(frame=scene.frame_start)}", flush=True)
+        print(f"wrote {movie}", flush=True)
     return 0

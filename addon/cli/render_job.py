@@ -14,14 +14,18 @@ Frames reach their final names only by a rename (`TemporaryFrames`). Blender wri
 frame file itself, inside render.render, to the path its filepath pattern gives; the job
 points that pattern at a hidden temporary name in the same folder (`.frame_0001.PID.frametmp.png`
 for `frame_####`), and the render_write handler, which Blender calls once the file is
-written and closed, fsyncs it and renames it to the name the user's pattern gives. So a
-killed or failed render never leaves a cut file under a final name, and never touches an
-older frame of that name before the new one is whole. What remains: a kill -9 during
-Blender's write leaves that hidden `.NAME.PID.frametmp.EXT` (a catchable signal removes it,
-and the next render into the folder removes those of dead processes); movies (FFmpeg) are one growing file Blender writes itself, and stereo views (multiview)
-and the no-overwrite / placeholder options, whose checks Blender makes on the final name,
-keep Blender's own direct write. Blender's own "Saved:" line would name the temporary: the
-job's stdout passes through stderr_filter.final_frame_names, which prints the final name.
+written and closed, reads it back (core/whole_file: Blender's PNG writer closes a cut file
+on a full disk and says "Saved:"), fsyncs it and renames it to the name the user's pattern
+gives; a frame that is not whole stops the job with one line. So a killed or failed render
+never leaves a cut file under a final name, and never touches an older frame of that name
+before the new one is whole. A movie (FFmpeg) is one file under such a hidden name too,
+renamed once Blender has closed it: whole, to its name; stopped, to the name of the frames
+it holds. What remains: a kill -9 during Blender's write leaves that hidden
+`.NAME.PID.frametmp.EXT` (a catchable signal removes it, and the next render into the folder
+removes those of dead processes); Blender's own "Saved:" line would name the temporary: the
+job's stdout passes through stderr_filter.final_frame_names, which prints the final name; stereo
+views (multiview) and the no-overwrite / placeholder options, whose checks Blender makes on
+the final name, keep Blender's own direct write.
 """
 from __future__ import annotations
 
@@ -33,7 +37,7 @@ import signal
 import time
 
 from . import UserError
-from ..core import atomic, stop
+from ..core import atomic, stop, whole_file
 from .stderr_filter import final_frame_names, without_egl_probe_lines
 
 
@@ -52,10 +56,12 @@ class Progress:
 
     def written(self, scene, *_):
         seconds = time.perf_counter() - (self._t0 or time.perf_counter())
-        self.times.append(seconds)
         frame = scene.frame_current
         path = self.frames.written(scene) if self.frames is not None else \
             scene.render.frame_path(frame=frame)
+        if path is None:  # not written whole: the job stops with the frame's line
+            return
+        self.times.append(seconds)
         # milliseconds: small frames take a few (two decimals printed some as 0.00 s)
         print(f"frame {frame} ({len(self.times)}/{self.total})  {seconds:.3f} s  {path}", flush=True)
 
@@ -82,21 +88,28 @@ def remove_dead_frames(folder: str) -> None:
 
 class TemporaryFrames:
     """Points the scene's output at hidden temporary names for the job, and renames each
-    frame to its final name once Blender has written it (see the module docstring)."""
+    frame to its final name once Blender has written it and it reads back whole (see the
+    module docstring). A frame that does not is removed, recorded in `failure`, and the job
+    is stopped. A movie is renamed once the job ends: whole to its name, interrupted to the
+    name of the frames it holds (`finish_movie`)."""
 
     def __init__(self, bpy, scene):
         self.bpy, self.scene = bpy, scene
         self.original = self.marker = None
         self.pending: set[str] = set()
+        self.movie = is_movie(scene)
+        self.done: list[int] = []  # the frames written (a movie's: appended to it)
+        self.failure: str | None = None
 
     @staticmethod
     def applies(scene) -> bool:
         r = scene.render
-        movie = getattr(r, "is_movie_format", False) or r.image_settings.file_format == "FFMPEG"
-        return not (movie or r.use_multiview or r.use_placeholder or not r.use_overwrite)
+        return not (r.use_multiview or r.use_placeholder or not r.use_overwrite)
 
     def final_path(self, frame: int) -> str:
-        path = self.scene.render.frame_path(frame=frame)
+        return self._unmarked(self.scene.render.frame_path(frame=frame))
+
+    def _unmarked(self, path: str) -> str:
         if self.marker is None:
             return path
         folder, name = os.path.split(path)
@@ -105,20 +118,91 @@ class TemporaryFrames:
     def pre(self, scene, *_):
         if self.marker is not None and scene == self.scene:
             path = scene.render.frame_path(frame=scene.frame_current)
-            self.pending.add(path)
-            atomic.register_temporary(path)
+            if path not in self.pending:
+                self.pending.add(path)
+                atomic.register_temporary(path)
 
     def written(self, scene, *_):
-        """Rename the frame Blender has just written to its final name; its final path."""
+        """Rename the frame Blender has just written to its final name, once it reads back
+        whole; its final path (None when it did not: the job is then stopped)."""
         frame = scene.frame_current
         if self.marker is None or scene != self.scene:
+            if scene == self.scene:
+                self.done.append(frame)
             return scene.render.frame_path(frame=frame)
         tmp, final = scene.render.frame_path(frame=frame), self.final_path(frame)
-        atomic.sync_file(tmp)
-        os.replace(tmp, final)
+        if self.movie:  # one file for the job: renamed in finish_movie
+            self.done.append(frame)
+            return final
+        what = whole_file.problem(tmp)
+        try:
+            if what is None:
+                atomic.sync_file(tmp)
+                with atomic.replacing(final):
+                    os.replace(tmp, final)
+        except OSError as exc:
+            what = exc.strerror or str(exc)
+        if what is not None:
+            self._fail(f"frame {frame} not written to {final}: "
+                       f"{whole_file.reason(os.path.dirname(final), what)}")
+            return None
+        self.pending.discard(tmp)
+        atomic.forget_temporary(tmp)
+        self.done.append(frame)
+        return final
+
+    def _fail(self, line: str) -> None:
+        if self.failure is None:
+            self.failure = line
+        stop.request_stop()  # the engine cancels the next frame: Blender writes no more
+
+    def failed_line(self, error: str) -> str:
+        """The line for a job Blender's writer failed: its error, why, and what is on disk."""
+        folder = os.path.dirname(self.final_path(self.scene.frame_start))
+        line = whole_file.reason(folder, error)
+        kept = (f"; the movie {self.final_path(self.scene.frame_start)} is as it was" if self.movie
+                else "; earlier frames are whole, this one and later ones as they were")
+        return line + kept if self.marker is not None else line
+
+    def finish_movie(self, stopped: bool, label: str) -> str | None:
+        """Rename the closed movie: whole, to its name; stopped, to the name of the frames it
+        holds (frame_0001-0005.mp4 of 1-6); removed when it holds none or is not whole. The
+        path it now has, or None."""
+        if not self.movie:
+            return None
+        if self.marker is None:  # Blender's own direct write (stereo, placeholders)
+            return self.scene.render.frame_path(frame=self.scene.frame_start) if self.done else None
+        tmp = self.scene.render.frame_path(frame=self.scene.frame_start)
+        final = self._unmarked(tmp)
+        what = whole_file.problem(tmp) if self.done else "no frame finished"
+        if not stopped and what is not None:
+            self._remove(tmp)
+            raise UserError(f"{label}: movie not written to {final}: "
+                            f"{whole_file.reason(os.path.dirname(final), what)}; "
+                            "an earlier movie of that name is as it was")
+        if stopped:
+            final = self._held_name(self.done[-1]) if what is None else None
+            if final is None or os.path.lexists(final):
+                self._remove(tmp)
+                return None
+        with atomic.replacing(final):
+            os.replace(tmp, final)
         self.pending.discard(tmp)
         atomic.forget_temporary(tmp)
         return final
+
+    def _held_name(self, last: int) -> str:
+        """The movie's name for the frames start..last (Blender's naming from the range)."""
+        end = self.scene.frame_end
+        self.scene.frame_end = last
+        try:
+            return self._unmarked(self.scene.render.frame_path(frame=self.scene.frame_start))
+        finally:
+            self.scene.frame_end = end
+
+    def _remove(self, tmp: str) -> None:
+        self.pending.discard(tmp)
+        atomic.forget_temporary(tmp, remove=True)
 
     def __enter__(self):
         if self.applies(self.scene):
@@ -135,6 +219,11 @@ class TemporaryFrames:
         for path in self.pending:  # a frame stopped, failed or interrupted mid-write
             atomic.forget_temporary(path, remove=True)
         self.pending.clear()
+
+
+def is_movie(scene) -> bool:
+    r = scene.render
+    return bool(getattr(r, "is_movie_format", False)) or r.image_settings.file_format == "FFMPEG"
 
 
 class _StopOnSigint:
@@ -166,20 +255,28 @@ class _StopOnSigint:
     def __exit__(self, *exc):
         for sig, old in self._old.items():
             signal.signal(sig, old)
+        stop.clear_stop()  # the stop was this job's: later reads (core/stop.check) go on
 
 
-def render_animation(bpy, scene, total: int, label: str) -> tuple[list[float], bool]:
+def render_animation(bpy, scene, total: int, label: str) -> tuple[list[float], bool, str | None]:
     """Render the scene's frame range: (seconds per finished frame, whether Ctrl+C stopped
-    it). A render error other than the stop is a UserError starting with `label`."""
+    it, the movie's path where one was written). A render error other than the stop, or a
+    frame or movie that did not reach the disk whole, is a UserError starting with `label`."""
     with _claimed(scene), TemporaryFrames(bpy, scene) as frames, \
             Progress(bpy, total, frames) as progress, _StopOnSigint(), without_egl_probe_lines(), \
             final_frame_names():
+        error = None
         try:
             bpy.ops.render.render(animation=True, scene=scene.name)
         except RuntimeError as exc:
-            if not stop.stop_requested():
-                raise UserError(f"{label}: {one_line(exc)}") from None
-    return progress.times, stop.stop_requested()
+            error = exc
+        if frames.failure is not None:
+            raise UserError(f"{label}: {frames.failure}")
+        if error is not None and not stop.stop_requested():
+            raise UserError(f"{label}: {frames.failed_line(one_line(error))}") from None
+        stopped = stop.stop_requested()
+        movie = frames.finish_movie(stopped, label)
+    return progress.times, stopped, movie
 
 
 _RENDER_LOCK = re.compile(r"^\.splatline-render\.(\d+)\.lock$")
@@ -216,8 +313,12 @@ def _claimed(scene):
         return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        os.write(fd, json.dumps({"pid": os.getpid(), "pattern": pattern,
-                                 "frames": [mine.start, mine.stop, mine.step]}).encode())
+        try:
+            os.write(fd, json.dumps({"pid": os.getpid(), "pattern": pattern,
+                                     "frames": [mine.start, mine.stop, mine.step]}).encode())
+        except OSError as exc:  # a full disk: the error names the folder (nothing written yet)
+            exc.filename = folder
+            raise
         atomic.register_temporary(lock)
         os.replace(tmp, lock)
         for name in sorted(os.listdir(folder)):

@@ -36,6 +36,34 @@ import numpy as np
 
 _LIVE: set[str] = set()
 _LOCK = threading.Lock()
+_ATTEMPTS: list[tuple[str, tuple | None]] = []  # outputs this process set out to replace
+
+
+def _identity(path):
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_mtime_ns, st.st_size
+
+
+@contextlib.contextmanager
+def replacing(path):
+    """The block may put path in place (a rename, Blender's save). Its identity before is
+    kept, so an interrupted command can say afterwards whether it was replaced (written()),
+    however late in the block the signal came: nothing here delays the interrupt."""
+    _ATTEMPTS.append((os.fspath(path), _identity(path)))
+    yield
+
+
+def written() -> list[str]:
+    """The outputs this process replaced or made, as the disk shows them now."""
+    out = []
+    for path, before in _ATTEMPTS:
+        now = _identity(path)
+        if now is not None and now != before and path not in out:
+            out.append(path)
+    return out
 
 
 def temporary_name(target: str) -> str:
@@ -240,7 +268,7 @@ def write_group(files) -> None:
                 with _naming(path):
                     staged.append(stage(target, parts))
             for target, tmp, (path, parts) in zip(targets, staged, files):
-                with _naming(path):
+                with _naming(path), replacing(path):
                     if tmp is None:
                         with open(target, "wb") as f:
                             _write_parts(f, parts)

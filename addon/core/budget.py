@@ -7,7 +7,14 @@ what the process already holds (its resident set), so the budget bounds the peak
 the new allocation. Estimates (each the caller's, from the counts a header claims, before
 anything is decompressed or allocated):
 - splats: count x (BASE_BYTES_PER_SPLAT + SH_BYTES_PER_FLOAT x higher-SH floats), formats/_common;
-- frame buffers: width x height x passes x bytes per pixel (frame_bytes).
+- frame buffers: width x height x passes x bytes per pixel (frame_bytes);
+- what the command does with the splats once read, while it holds them (`after_read`, set by
+  the command before it reads, counted by the read's own check): a writer's encoding
+  (Format.write_bytes), Blender's copy (import), Blender's copy and the renderer's buffers
+  (render: RENDER_BYTES_PER_SPLAT). So a file that cannot be converted, imported or rendered
+  within the budget is refused at its header, before any work.
+Each figure is an upper bound of peaks measured on bpy 5.0 at 1M splats, degrees 0 and 3
+(bench/memory_budget_bench.py prints estimate against measured peak per command).
 A refusal is one line (BudgetError, a SplatFormatError): the file or option, what it would
 take, the budget, and the flag that allows it.
 """
@@ -20,6 +27,8 @@ from .errors import SplatFormatError
 
 HEADROOM = 0.8  # of available memory, the default budget
 _max_memory: int | None = None
+_after_read = [None]  # (count, rest_floats) -> bytes: what follows the read (after_read)
+_largest = [0]  # the largest peak an estimate has foreseen in this process (bench/memory_budget_bench)
 
 
 class BudgetError(SplatFormatError):
@@ -42,6 +51,28 @@ def parse_size(text: str) -> int:
     if value <= 0:
         raise ValueError(f"{text!r} is not a positive size")
     return value
+
+
+def after_read(cost) -> None:
+    """What the command will allocate while it holds the splats it reads: a function of
+    (count, higher-SH floats per splat) -> bytes, or None. The read's check adds it."""
+    _after_read[0] = cost
+
+
+def planned(count: int, rest_floats: int) -> int:
+    cost = _after_read[0]
+    return 0 if cost is None else int(cost(count, rest_floats))
+
+
+# The renderer's share per splat of a frame (measured, bench/memory_budget_bench.py: 1M splats,
+# 1080p-4K, peak minus Blender's copy and the frame buffers): the engine's gathered arrays, its
+# preprocessed and sorted copies, the GL buffers; and per higher-SH float.
+RENDER_BYTES_PER_SPLAT = 420
+RENDER_BYTES_PER_SH_FLOAT = 8
+
+
+def render_bytes(count: int, rest_floats: int) -> int:
+    return int(count) * (RENDER_BYTES_PER_SPLAT + RENDER_BYTES_PER_SH_FLOAT * int(rest_floats))
 
 
 def human(nbytes: float) -> str:
@@ -89,10 +120,11 @@ def limit() -> tuple[int | None, str]:
 def check(what, nbytes: int, allow: str, detail: str = "") -> None:
     """Refuse `what` (a file path or an option) when holding `nbytes` more would pass the
     budget. `allow` names the flag that raises it; `detail` says what the estimate counts."""
+    held = resident()
+    _largest[0] = max(_largest[0], held + int(nbytes))
     budget, source = limit()
     if budget is None:
         return
-    held = resident()
     if held + nbytes > budget:
         counted = f" ({detail})" if detail else ""
         in_use = f", {human(held)} of it in use" if held else ""
@@ -104,7 +136,12 @@ FRAME_BYTES_PER_PIXEL = 4 * 4 + 4  # RGBA float32 + a float32 depth
 # the renderer's target and its film target (gl/film.py), their read-backs, Blender's render
 # result and the file's buffer (without a film pass, the CPU conversion's output stands in
 # for the film's two)
-FRAME_COPIES = 6
+FRAME_COPIES = 8  # measured: 4K costs 150 bytes a pixel more than 1080p (bench/memory_budget_bench)
+
+
+def largest_estimate() -> int:
+    """The largest peak (resident set + what a check allowed) foreseen so far in this process."""
+    return _largest[0]
 
 
 def frame_bytes(width: int, height: int, passes: int = 1) -> int:

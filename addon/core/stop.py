@@ -32,6 +32,18 @@ def stop_requested() -> bool:
     return _STOP.is_set()
 
 
+class Stopped(Exception):
+    """Raised by check() where a long stage gives way to a requested stop."""
+
+
+def check() -> None:
+    """Raise Stopped when a stop was requested: called between the parts of a long stage (a
+    frame's GL tiles and batches, the reads of a large PointCloud), so a stop takes effect
+    within a part, not at the end of the frame."""
+    if _STOP.is_set():
+        raise Stopped()
+
+
 def _on_sigint(signum, frame):
     request_stop()
     print("stopping the render: finished frames are kept (Ctrl+C again to quit now)",

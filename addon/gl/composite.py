@@ -32,6 +32,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from ..core import stop
 from ..core.render_constants import DEPTH_FROM_ALPHA
 from . import shaders
 from .holdout import depth_encoding, from_ordered_bits
@@ -227,6 +228,7 @@ class Compositor:
         ctx.blend_func = moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE
         for number, (first, count) in enumerate(plan):
             if number:
+                stop.check()  # between batches: a requested stop need not wait for the tile
                 self._break(t, w, h, number)
                 fbo.use()
             self._draw(first, count)

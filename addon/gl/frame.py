@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ..core import stop
 from ..core.camera import Camera
 from ..core.scene import RenderItem, RenderOptions, RenderOutput
 from . import shaders
@@ -167,6 +168,7 @@ class FrameState:
             order, visible, n = self._gpu_prepare(items, camera, options)
         else:
             records, visible = cpu_records(items, camera, options)
+            stop.check()  # a stop requested (Ctrl+C, SIGTERM) ends the frame between stages
             self.record_textures.upload(records, self.stats)
             for program in {self.compositor.programs_for(False)[0],
                             self.compositor.programs_for(surface is not None)[0]}:
@@ -188,6 +190,7 @@ class FrameState:
         surface: the frame's holdout (gl/holdout.Surface), or None."""
         frame_tiles = list(tiles(camera.width, camera.height))
         args = (visible, options, surface, front_depths)
+        stop.check()
         if len(frame_tiles) == 1:
             rgba, depth, film = self._run_tile(frame_tiles[0], *args)
             return rgba, depth, None if film is None else film.reshape(-1)
@@ -195,6 +198,7 @@ class FrameState:
         depth = np.empty((camera.height, camera.width), np.float32)
         film = np.empty_like(rgba) if options.film is not None else None
         for tile in frame_tiles:
+            stop.check()
             x0, y0, w, h = tile
             out = (slice(y0, y0 + h), slice(x0, x0 + w))
             rgba[out], depth[out], tile_film = self._run_tile(tile, *args)

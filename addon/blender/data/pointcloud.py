@@ -14,6 +14,7 @@ import numpy as np
 
 import bpy
 
+from ...core import stop
 from ...core.formats._common import normalize_quats_
 from ...core.splats import AXES_RDF, SplatSet, sh_coeff_count, sh_degree_for
 from .native import mark_as_splats
@@ -155,8 +156,12 @@ def blender_bytes(count: int, sh_degree: int) -> int:
     the whole higher SH), and 64 bytes for the helper mesh's vertex and Blender's own
     per-point data. Measured on bpy 5.0 (VmHWM over the call, 400,000 random splats):
     385 bytes a splat at degree 3 (this estimate: 536), 97 at degree 1 (248), 25 at 0 (176)."""
-    floats = 14 + 3 * sh_coeff_count(sh_degree)
-    return int(count) * (2 * 4 * floats + 64)
+    return blender_bytes_for(count, 3 * sh_coeff_count(sh_degree))
+
+
+def blender_bytes_for(count: int, rest_floats: int) -> int:
+    """blender_bytes by the higher-SH floats per splat (core/budget.after_read's terms)."""
+    return int(count) * (2 * 4 * (14 + int(rest_floats)) + 64)
 
 
 def new_pointcloud(name: str, splats: SplatSet) -> bpy.types.PointCloud:
@@ -286,6 +291,7 @@ def splats_from_pointcloud(pointcloud, axes: str = AXES_RDF) -> SplatSet:
     base = _get(attributes, BASE, 4, n)
     planes = np.empty((sh_coeff_count(degree), n, 3), np.float32)
     for i in range(planes.shape[0]):
+        stop.check()  # a render's stop: 15 planes of 10M splats take seconds
         attributes[sh_name(i)].data.foreach_get("vector", planes[i].reshape(-1))
     rest = swap01(planes)  # consumers (GPU uploads, effects) expect a contiguous (N, K, 3)
     return SplatSet(

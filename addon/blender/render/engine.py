@@ -26,7 +26,7 @@ from ...core.colorspace import premultiplied_srgb_to_linear as to_scene_linear
 from ...core.errors import SplatFormatError
 from ...core.holdout import combine_depth, holdout_depth
 from ...core.scene import Film
-from ...core.stop import SigintGuard, stop_requested
+from ...core.stop import SigintGuard, Stopped, stop_requested
 from . import mesh_layer, motion_blur
 from . import backend as render_backend
 from .camera import camera_from_blender
@@ -108,7 +108,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         try:
             self._render(depsgraph)
-        except (_Stopped, KeyboardInterrupt):
+        except (_Stopped, Stopped, KeyboardInterrupt):
             # An ERROR report makes Blender break the job: no file for this frame.
             self.report({"ERROR"}, "Splatline: render interrupted")
         except (SplatFormatError, ValueError) as exc:

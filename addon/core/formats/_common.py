@@ -74,9 +74,11 @@ def check_budget(path, count: int, rest_floats: int, max_splats=None, copies: in
                                          f"{max_splats} (max_splats / --max-splats)")
         return
     per_splat = BASE_BYTES_PER_SPLAT + SH_BYTES_PER_COEFFICIENT * rest_floats
-    budget.check(path, copies * splat_bytes(count, rest_floats), "--max-memory or --max-splats",
+    then = budget.planned(count, rest_floats)  # what the command does with them, while held
+    budget.check(path, copies * splat_bytes(count, rest_floats) + then, "--max-memory or --max-splats",
                  f"{count} splats at about {per_splat} bytes each"
-                 + (f", held {copies} times" if copies > 1 else ""))
+                 + (f", held {copies} times" if copies > 1 else "")
+                 + (f", and {budget.human(then)} to process them" if then else ""))
 
 
 def json_object(path, text, what: str) -> dict:

@@ -46,6 +46,9 @@ class Format:
     axes        the convention its files hold; a set in another is re-expressed before writing
     max_sh_degree   the highest SH degree the writer stores
     drop        offered for drag-and-drop (FileHandler): not for extensions other importers own
+    write_bytes what the writer allocates at its peak beyond the splats it is given: bytes per
+                splat and per higher-SH float (core/budget.after_read; measured at 1M splats,
+                degrees 0 and 3, with a sixth to spare: bench/memory_budget_bench.py)
     """
     name: str
     label: str
@@ -63,6 +66,11 @@ class Format:
     axes: str = AXES_RDF
     max_sh_degree: int = 3
     drop: bool = True
+    write_bytes: tuple[int, int] = (0, 0)
+
+    def write_cost(self, count: int, rest_floats: int) -> int:
+        per_splat, per_float = self.write_bytes
+        return int(count) * (per_splat + per_float * int(rest_floats))
 
     def matches(self, head: bytes) -> bool:
         """Whether a file starting with `head` (its first 4 KiB) is this format by its bytes."""
@@ -88,30 +96,31 @@ def _resolve(target):
 ROWS: list[Format] = [
     Format("ply", "INRIA PLY", "Float PLY with every SH band: a lossless round trip", ".ply", (".ply",),
            "ply:read_ply", "ply:write_ply", magic=(b"ply",), sniff=lambda head: not _ply_chunked(head),
-           magic_required=True),
+           magic_required=True, write_bytes=(16, 4)),
     Format("compressed_ply", "Compressed PLY",
            "PlayCanvas/SuperSplat packed PLY: about a quarter of the float PLY", "compressed .ply",
            (".compressed.ply",), "compressed_ply:read_compressed_ply",
            "compressed_ply_write:write_compressed_ply", magic=(b"ply",), sniff=_ply_chunked,
-           magic_required=True),
+           magic_required=True, write_bytes=(190, 9)),
     Format("splat", "antimatter15", "Compact 32-byte splats, no higher SH", ".splat", (".splat",),
-           "splat:read_splat", "splat:write_splat", max_sh_degree=0),  # no higher SH bands stored
+           "splat:read_splat", "splat:write_splat", max_sh_degree=0, write_bytes=(56, 0)),  # no higher SH bands stored
     # spz holds RUB, as its documentation, Niantic's library and Blender 5.3 say; sog holds
     # RDF, as splat-transform writes it (docs/ARCHITECTURE.md: core/axes.py)
     Format("spz", "Niantic SPZ", "SPZ v4 (zstd streams), about a tenth of the float PLY", ".spz", (".spz",),
            "spz:read_spz", "spz_write:write_spz", magic=(b"\x1f\x8b", b"NGSP"), magic_required=True,
-           options=("version",), axes=AXES_RUB),
+           options=("version",), axes=AXES_RUB, write_bytes=(100, 30)),
     Format("sog", "PlayCanvas SOG", "SOG v2 bundled: WebP images in a zip, the smallest",
            ".sog (or a SOG meta.json)", (".sog",), "sog:read_sog", "sog_write:write_sog",
-           magic=(b"PK\x03\x04",), file_names=("meta.json",), options=("iterations", "seed")),
+           magic=(b"PK\x03\x04",), file_names=("meta.json",), options=("iterations", "seed"),
+           write_bytes=(170, 2)),
     # glTF: RDF in and out; the reader and writer turn it into glTF's own frame. Never offered
     # for drops: a FileHandler cannot see the file, so it would stand in front of every glTF.
     Format("glb", "glTF binary", "KHR_gaussian_splatting glTF, one binary file", ".glb", (".glb",),
            "gltf:read_gltf", "gltf_write:write_gltf", magic=(b"glTF",),
-           writer_args=(("binary_container", True),), drop=False),
+           writer_args=(("binary_container", True),), drop=False, write_bytes=(90, 10)),
     Format("gltf", "glTF", "KHR_gaussian_splatting glTF with embedded buffers", ".gltf", (".gltf",),
            "gltf:read_gltf", "gltf_write:write_gltf", writer_args=(("binary_container", False),),
-           drop=False),
+           drop=False, write_bytes=(300, 24)),
 ]
 
 

@@ -126,7 +126,9 @@ def _plan_capture_memory(scene) -> None:
 
 def _scene_splats(bpy) -> tuple[int, int]:
     """(splats in the scene's splat objects, the most higher-SH floats a splat of them has)."""
-    from ..blender.data.pointcloud import is_splat_object, sh_count_in
+    from ..blender.data.pointcloud import sh_count_in
+    from ..blender.data.sources import is_splat_object
+
     count = rest = 0
     for obj in bpy.context.scene.objects:
         if is_splat_object(obj, with_splat_data=True):

@@ -19,6 +19,7 @@ import bpy
 from ...core.dynamic import timeline
 from ...core.dynamic.capture import DynamicCapture
 from ...core.splats import SplatSet
+from ..registration import app_handlers
 from . import stored_splats
 from .evaluated_geometry import own_data
 from .pointcloud import read_floats, write_floats
@@ -139,12 +140,4 @@ def _on_load(*_args):
     CACHE.clear()
 
 
-def register():
-    if _on_load not in bpy.app.handlers.load_pre:
-        bpy.app.handlers.load_pre.append(_on_load)
-
-
-def unregister():
-    while _on_load in bpy.app.handlers.load_pre:
-        bpy.app.handlers.load_pre.remove(_on_load)
-    CACHE.clear()
+register, unregister = app_handlers(((bpy.app.handlers.load_pre, _on_load),), on_unregister=CACHE.clear)

@@ -22,6 +22,7 @@ from ...core import sequence as core_sequence
 from ...core.errors import SplatFormatError
 from ...core.formats import read
 from ...core.splats import ARRAYS, SplatSet
+from ..registration import app_handlers
 from .source_kind import SourceFrame, SplatSource
 
 log = logging.getLogger("splatline.sequence")
@@ -204,12 +205,4 @@ def _on_load(*_args):
     forget_objects()
 
 
-def register():
-    if _on_load not in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.append(_on_load)
-
-
-def unregister():
-    while _on_load in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.remove(_on_load)
-    shutdown()
+register, unregister = app_handlers(((bpy.app.handlers.load_post, _on_load),), on_unregister=shutdown)

@@ -3,8 +3,6 @@ PLY, .splatv, .4dgs) as one object that plays on the timeline. Several Spacetime
 files picked together play in order as one object."""
 from __future__ import annotations
 
-import os
-
 import bpy
 from bpy.props import CollectionProperty, EnumProperty, FloatProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
@@ -12,6 +10,7 @@ from bpy_extras.io_utils import ImportHelper
 from ...core.dynamic import timeline
 from ...core.errors import SplatFormatError
 from ..data.dynamic_files import import_dynamic
+from .io import picked_paths
 from ..registration import classes_and_menus
 
 _MODES = [(timeline.HOLD, "Hold", "Hold the first and last moments outside the capture's range"),
@@ -35,14 +34,8 @@ class IMPORT_SCENE_OT_splatline_dynamic(bpy.types.Operator, ImportHelper):
                     "else real time for captures in seconds and 50 frames a Spacetime segment)")
     mode: EnumProperty(name="Outside Range", items=_MODES, default=timeline.HOLD)
 
-    def paths(self) -> list[str]:
-        names = sorted(f.name for f in self.files if f.name)
-        if names and self.directory:
-            return [os.path.join(self.directory, name) for name in names]
-        return [self.filepath] if self.filepath else []
-
     def execute(self, context):
-        paths = self.paths()
+        paths = sorted(picked_paths(self))  # segments play in their names' order
         if not paths:
             self.report({"ERROR"}, "no file given")
             return {"CANCELLED"}

@@ -41,6 +41,15 @@ _BAD_ENUM = [
 ]
 
 
+def picked_paths(operator) -> list[str]:
+    """The files picked in an import operator's browser (its `files` in `directory`), in
+    the order picked, else its `filepath` (a script's call)."""
+    names = [f.name for f in operator.files if f.name]
+    if names and operator.directory:
+        return [os.path.join(operator.directory, name) for name in names]
+    return [operator.filepath] if operator.filepath else []
+
+
 class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
     """Import Gaussian splat captures as PointCloud objects"""
 
@@ -63,10 +72,7 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                              description="What to do with splats holding NaN/Inf values or zero quaternions")
 
     def paths(self) -> list[str]:
-        names = [f.name for f in self.files if f.name]
-        if names and self.directory:
-            return [os.path.join(self.directory, name) for name in names]
-        return [self.filepath] if self.filepath else []
+        return picked_paths(self)
 
     def invoke(self, context, event):
         return self.invoke_popup(context)

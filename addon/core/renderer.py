@@ -30,7 +30,7 @@ class Renderer(Protocol):
     has_panorama           it draws equirectangular cameras
     has_defocus            it draws depth of field (camera.defocus)
     has_early_termination  it honours options.early_termination (else always blends all)
-    has_film               it honours options.film (RenderOutput.film; else that is None)
+    has_film               it honours options.film (RenderOutput.combined; else that is None)
     """
 
     has_depth: bool

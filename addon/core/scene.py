@@ -65,7 +65,7 @@ class RenderItem:
 @dataclass(frozen=True)
 class Film:
     """A request for the frame in the terms of Blender's render result as well
-    (RenderOutput.film), made by a renderer that has_film, so the engine's conversion
+    (RenderOutput.combined), made by a renderer that has_film, so the engine's conversion
     (blender/render/film.result_rect) need not run on the CPU.
 
     under: the scene-linear RGB of the world composited under the splats (alpha then 1);
@@ -92,7 +92,7 @@ class RenderOptions:
     # a pixel is drawn only where its centre depth is below the nearest surface's there.
     # Compared and hashed by its key (a hash of the triangles).
     holdout: Holdout | None = None
-    film: Film | None = None  # also return RenderOutput.film (renderers that has_film)
+    film: Film | None = None  # also return RenderOutput.combined (renderers that has_film)
 
 
 @dataclass
@@ -105,11 +105,11 @@ class RenderOutput:
     stays below 0.5. Smooth along surfaces and through soft edges, which is what defocus
     and fog want from a Z pass; a faint floater in front moves it by its own small weight.
     Early termination, where on, ends the sum where it ends the colour.
-    film: None, or where options.film asked a renderer that has_film, the Combined pass of
-    Blender's render result: (H * W * 4,) float32, bottom-up rows, premultiplied
+    combined: None, or where options.film asked a renderer that has_film, the Combined pass
+    of Blender's render result: (H * W * 4,) float32, bottom-up rows, premultiplied
     scene-linear, over Film.under where given; blender/render/film.result_rect(rgba,
     Film.under) to float32 rounding (pinned by tests/gl/test_film_pass.py)."""
 
     rgba: np.ndarray
     depth: np.ndarray
-    film: np.ndarray | None = None
+    combined: np.ndarray | None = None

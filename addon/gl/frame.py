@@ -176,17 +176,17 @@ class FrameState:
             self.stats["cpu_sorts"] += 1
             order, n = None, sum(item.splats.count for item in items)
             front_depths = records[1, :, 2]  # back to front: the draw stage's centre depths
-        rgba, depth, film = self._composite(camera, visible, options, surface, front_depths)
+        rgba, depth, combined = self._composite(camera, visible, options, surface, front_depths)
         behind(rgba, options.background)
         self.stats["frames"] += 1
         self.stats["resident_objects"] = self.cache.resident
         self.last = (order, visible, n)
-        return RenderOutput(rgba, depth, film)
+        return RenderOutput(rgba, depth, combined)
 
     def _composite(self, camera: Camera, visible: int, options: RenderOptions, surface=None,
                    front_depths=None):
         """The frame's (rgba, depth, film), tile by tile; a frame of one tile is its
-        arrays. film: the flat Combined pass where options.film asks for it, else None.
+        arrays. combined: the flat Combined pass where options.film asks for it, else None.
         surface: the frame's holdout (gl/holdout.Surface), or None."""
         frame_tiles = list(tiles(camera.width, camera.height))
         args = (visible, options, surface, front_depths)

@@ -24,9 +24,9 @@ BACKGROUND = (0.1, 0.05, 0.2, 0.4)  # premultiplied display sRGB
 
 def assert_film(out, under):
     want = result_rect(out.rgba, under)
-    assert out.film is not None and out.film.shape == want.shape and out.film.dtype == np.float32
-    np.testing.assert_allclose(out.film, want, rtol=RTOL, atol=ATOL)
-    film = out.film.reshape(out.rgba.shape)
+    assert out.combined is not None and out.combined.shape == want.shape and out.combined.dtype == np.float32
+    np.testing.assert_allclose(out.combined, want, rtol=RTOL, atol=ATOL)
+    film = out.combined.reshape(out.rgba.shape)
     if under is None:  # alpha is the frame's, untouched, its rows turned over
         assert np.array_equal(film[..., 3], out.rgba[::-1, :, 3])
     else:
@@ -51,7 +51,7 @@ def test_film_is_the_engines_conversion_of_the_frame(renderer, guitar, under, ba
     out = renderer.render(items, cam, RenderOptions(film=Film(under), background=background))
     assert_film(out, under)
     # and the frame itself is the one drawn without a film
-    assert plain.film is None
+    assert plain.combined is None
     assert np.array_equal(plain.rgba, out.rgba) and np.array_equal(plain.depth, out.depth)
 
 

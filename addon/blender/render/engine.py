@@ -204,7 +204,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
             depth = out.depth
             if frame.mesh_depth and holdout is not None and frame.renderer.has_depth:
                 depth = combine_depth(depth, out.rgba[..., 3], holdout_depth(holdout, camera))
-            films[view] = (out.rgba, depth, out.film)
+            films[view] = (out.rgba, depth, out.combined)
         return films
 
     def _blurred(self, frame, times) -> dict:

@@ -116,9 +116,15 @@ def main(argv=None, prog: str = "python -m addon") -> int:
     if unknown:  # the sub-command's usage, not the top level's, and a guess at a misspelling
         _unrecognized(args.command_parser, unknown)
     module = _command_module(args.command)
+    # a command's budget and record of what it replaced are its own: tests and scripts run
+    # several commands in one process, and a later read must not count an earlier plan
     budget.set_max_memory(args.max_memory)
-    with _sigterm_as_sigint() as terminated:
-        rc = _run(module, args)
+    atomic.forget_attempts()
+    try:
+        with _sigterm_as_sigint() as terminated:
+            rc = _run(module, args)
+    finally:
+        budget.after_read(None)
     if terminated and rc == 0:  # caught where Blender swallows exceptions (a handler): the work
         print(_interrupted("interrupted (SIGTERM)"), file=sys.stderr)  # finished whole, but still a stop
         return 130

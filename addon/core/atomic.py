@@ -56,6 +56,11 @@ def replacing(path):
     yield
 
 
+def forget_attempts() -> None:
+    """A new command: what earlier ones replaced is not its to report."""
+    _ATTEMPTS.clear()
+
+
 def written() -> list[str]:
     """The outputs this process replaced or made, as the disk shows them now."""
     out = []

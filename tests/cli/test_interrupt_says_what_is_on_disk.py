@@ -22,9 +22,9 @@ CHILD = textwrap.dedent("""
     from addon.cli import blender_session
 
     where = {where!r}
+    handler = bpy.app.handlers.persistent(lambda *_: os.kill(os.getpid(), signal.SIGTERM))
     if where == "save_post":  # persistent: the CLI's session starts from factory settings
-        bpy.app.handlers.save_post.append(bpy.app.handlers.persistent(
-            lambda *_: os.kill(os.getpid(), signal.SIGTERM)))
+        bpy.app.handlers.save_post.append(handler)
     else:
         save = blender_session.save_blend
         def before_save(*a, **k):
@@ -33,7 +33,11 @@ CHILD = textwrap.dedent("""
         blender_session.save_blend = before_save
 
     from addon.__main__ import main
-    sys.exit(main(["import", {capture!r}, "--blend", {blend!r}]))
+    rc = main(["import", {capture!r}, "--blend", {blend!r}])
+    # bpy 4.5 hangs at exit in a C++ destructor while a Python handler is still registered
+    while handler in bpy.app.handlers.save_post:
+        bpy.app.handlers.save_post.remove(handler)
+    sys.exit(rc)
 """)
 
 

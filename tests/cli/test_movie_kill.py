@@ -37,7 +37,11 @@ CHILD = textwrap.dedent("""
 
     bpy.app.handlers.render_write.append(pause_at_frame_3)
     from addon.__main__ import main
-    sys.exit(main({argv!r}))
+    rc = main({argv!r})
+    # bpy 4.5 hangs at exit in a C++ destructor while a Python handler is still registered
+    while pause_at_frame_3 in bpy.app.handlers.render_write:
+        bpy.app.handlers.render_write.remove(pause_at_frame_3)
+    sys.exit(rc)
 """)
 
 

@@ -16,6 +16,8 @@ import pytest
 from addon.core.errors import SplatFormatError
 from addon.core.formats import read, read_with_report, readfile
 from testing.measured_cli import one_line
+from testing.webp_support import needs_straight_webp
+from testing.webp_support import needs_straight_webp
 from testing.paths import REPO
 from testing.read_faults import ACTIONS, REASONS, age, cli_with_fault, hook
 
@@ -43,7 +45,10 @@ def _donor(testdata, tmp_path, fmt):
 
 @pytest.mark.parametrize("at_block", [0, 3])
 @pytest.mark.parametrize("action", ACTIONS)
-@pytest.mark.parametrize("fmt", READERS)
+# a whole SOG read is the comparison: where SOG is refused (4.5's OpenImageIO), the next
+# test still changes one under `info` and `convert`, whose zip is read before the refusal
+@pytest.mark.parametrize("fmt", [pytest.param(f, marks=needs_straight_webp) if f == "sog" else f
+                                 for f in READERS])
 def test_a_file_changed_mid_read_is_one_error_or_whole(testdata, tmp_path, monkeypatch, fmt, action, at_block):
     path = _copy(testdata, tmp_path, fmt)
     whole = read(path)

@@ -52,3 +52,17 @@ def own_item(bpy, obj, frame):
 
 def world_positions(item):
     return item.splats.positions.astype(np.float64) @ item.world[:3, :3].T + item.world[:3, 3]
+
+
+def frame_and_stack(bpy, obj, world):
+    """(the object's source frame, its effect stack, the time in seconds) at the current
+    frame, as evaluate/items.item_for builds them: for tests that run the stack themselves."""
+    from addon.blender.evaluate import effect_params, items
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    obj_eval = obj.evaluated_get(depsgraph)
+    frame = items.source_frame(obj_eval, depsgraph)
+    time, fps = items.scene_time(depsgraph)
+    stack = effect_params.stack(obj_eval, depsgraph, world, time, fps, frame.splats,
+                                frame.key, items.base_splats)
+    return frame, stack, time

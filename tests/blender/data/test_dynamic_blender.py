@@ -194,8 +194,8 @@ def test_blender_53_renders_the_capture_moving_in_cycles(native_bpy, tmp_path, c
 def test_the_look_and_effects_apply_to_the_moving_splats(bpy_empty, tmp_path, capture):
     """A Colour Grade and a Reveal on the dynamic object act on the frame's splats, exactly
     as their kernels on the source frame; the Look's opacity reaches the item."""
-    from addon.blender.evaluate import effect_params, items
     from addon.core.effects import evaluate_stack
+    from testing.capture_scenes import frame_and_stack
     from testing.effect_ops import add_effect
 
     bpy = bpy_empty
@@ -204,12 +204,7 @@ def test_the_look_and_effects_apply_to_the_moving_splats(bpy_empty, tmp_path, ca
     add_effect(bpy, obj, "REVEAL", progress=0.0, edge_width=0.2)
     obj.splatline.look.opacity = 0.7
     item = item_at(bpy, obj.name_full, 20)
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    obj_eval = obj.evaluated_get(depsgraph)
-    frame = items.source_frame(obj_eval, depsgraph)
-    time, fps = items.scene_time(depsgraph)
-    stack = effect_params.stack(obj_eval, depsgraph, item.world, time, fps, frame.splats,
-                                frame.key, items.base_splats)
+    frame, stack, time = frame_and_stack(bpy, obj, item.world)
     want = evaluate_stack(frame.splats, stack.params, time, rest=frame.rest).splats
     for name in ("positions", "opacities", "sh_dc", "scales"):
         np.testing.assert_array_equal(getattr(item.splats, name), getattr(want, name))

@@ -158,14 +158,9 @@ def test_a_noise_dissolve_stays_on_splats_that_move(orbiting, testdata):
     assert not np.array_equal(a.splats.positions, b.splats.positions)
 
     # the same stack sampled at the moved centres (no rest from the source) slides
-    from addon.blender.evaluate import effect_params, items
+    from testing.capture_scenes import frame_and_stack
 
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    obj_eval = obj.evaluated_get(depsgraph)
-    frame = items.source_frame(obj_eval, depsgraph)
-    time, fps = items.scene_time(depsgraph)
-    stack = effect_params.stack(obj_eval, depsgraph, b.world, time, fps, frame.splats,
-                                frame.key, items.base_splats)
+    frame, stack, time = frame_and_stack(bpy, obj, b.world)
     slid = evaluate_stack(frame.splats, stack.params, time).splats.opacities == 0.0
     assert not np.array_equal(slid, gone_b)
 

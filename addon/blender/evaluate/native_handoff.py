@@ -12,6 +12,10 @@ An object whose evaluation leaves its splats as stored gets no companion: Blende
 own data. Once it has one, the companion is kept and follows the splats, so keyframes that
 switch effects on and off never add or remove modifiers during a render.
 
+Render > Leave Out Far Outliers (on by default) hands each capture over without its few far
+stray splats (native_outliers.py): EEVEE quantises centres against the whole cloud's
+bounds. An object whose only change is that gets a companion too.
+
 Splatline's own engine reads items itself: its renders skip the handoff.
 """
 from __future__ import annotations
@@ -30,6 +34,7 @@ from ..data import evaluated_geometry as geometry
 from ..data import native
 from ..data.sources import is_splat_object, source_of
 from .items import item_for, shown, splat_objects, stored_as_is
+from .native_outliers import KeptSets, wanted
 from ..registration import app_handlers
 
 SPLATLINE_ENGINE = "SPLATLINE"
@@ -43,11 +48,11 @@ def changes_splats(item: RenderItem) -> bool:
             or not np.array_equal(item.color_matrix, IDENTITY_COLOR))
 
 
-def _written_key(item: RenderItem | None) -> tuple:
+def _written_key(item: RenderItem | None, thinned: bool) -> tuple:
     if item is None:
         return ("hidden",)
     return (item.key, item.splat_scale, item.opacity_scale, item.effective_sh_degree,
-            np.asarray(item.color_matrix, np.float64).tobytes())
+            np.asarray(item.color_matrix, np.float64).tobytes(), thinned)
 
 
 class Handoff:
@@ -58,6 +63,7 @@ class Handoff:
     def __init__(self):
         self.lock = threading.Lock()
         self.written: dict[int, tuple] = {}
+        self.kept = KeptSets()
         self.syncing = False
 
     def sync(self, depsgraph) -> int:
@@ -77,19 +83,25 @@ class Handoff:
         if not native.drawn_natively(original.data):
             return False
         drawn = shown(obj_eval)
+        guard = drawn and wanted(depsgraph)
         other = geometry.claim(original)
-        if other is None and drawn and stored_as_is(obj_eval):
+        if (other is None and drawn and stored_as_is(obj_eval)
+                and not (guard and self.kept.for_stored(obj_eval, depsgraph).dropped)):
             return False
         item = item_for(obj_eval, depsgraph) if drawn else None
+        kept = self.kept.for_item(obj_eval, depsgraph, item).kept if guard else None
         if other is None:
-            if item is not None and source_of(obj_eval).stored and not changes_splats(item):
+            if (item is not None and source_of(obj_eval).stored and not changes_splats(item)
+                    and kept is None):
                 return False
             other = geometry.install(original)
-        key = _written_key(item)
+        key = _written_key(item, kept is not None)
         held = self.written.get(other.session_uid)
         if held is not None and held[0] == key:
             return False
         splats = baked_splats(item) if item is not None else SplatSet.allocate(0, 0)
+        if kept is not None:
+            splats = splats.subset(kept)
         arrays = geometry.write(other, splats, held[1] if held is not None else None)
         self.written[other.session_uid] = (key, arrays)
         return True
@@ -105,6 +117,7 @@ class Handoff:
     def clear(self) -> None:
         with self.lock:
             self.written.clear()
+            self.kept.clear()
 
 
 _HANDOFF = Handoff()

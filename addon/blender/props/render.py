@@ -42,6 +42,11 @@ def _mesh_setting_changed(self, _context):
         hook(self.id_data)
 
 
+def _tag_scene(self, _context):
+    """The handoff follows depsgraph updates of the scene: a setting it reads sends one."""
+    self.id_data.update_tag()
+
+
 class RenderSettings(bpy.types.PropertyGroup):
     renderer: bpy.props.EnumProperty(
         name="Renderer", items=RENDERERS, default="AUTO",
@@ -89,6 +94,13 @@ class RenderSettings(bpy.types.PropertyGroup):
         description="The scene Splatline keeps for the mesh layer: the same meshes, lights, "
                     "camera and world, rendered by the Mesh Engine and composited under the "
                     "splats (made and kept in step automatically)")
+
+    native_outliers: bpy.props.BoolProperty(
+        name="Leave Out Far Outliers", default=True, update=_tag_scene,
+        description="Blender 5.3+: hand Blender's own engines each capture without the few "
+                    "splats (at most 0.1%) that sit more than 8x its size away. EEVEE "
+                    "quantises splat centres against the whole cloud's bounds, so a few far "
+                    "strays blur the whole capture. Splatline's own engine is not affected")
 
     def options(self, background=(0.0, 0.0, 0.0, 0.0)) -> RenderOptions:
         """The core RenderOptions these settings stand for."""

@@ -114,6 +114,7 @@ def _draw_engine_hint(self, context) -> None:
     text = engine_hint(context)
     if text:
         self.layout.label(text=text, icon="INFO")
+        self.layout.prop(context.scene.splatline.render, "native_outliers")
 
 
 classes = (SPLATLINE_PT_render,)

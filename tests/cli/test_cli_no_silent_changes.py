@@ -88,3 +88,40 @@ def test_a_sog_member_cut_short_names_a_reason(testdata, tmp_path):
     reason = line.split(f"cannot inflate {member}: ", 1)[1].strip()
     assert reason in ("compressed data ends early (the file is truncated or corrupt)",
                       f"Overlapped entries: {member!r} (possible zip bomb)"), line
+
+
+def test_convert_says_which_colours_and_sh_spz_and_compressed_ply_clamped(tmp_path):
+    """spz's colour and SH bytes, and compressed PLY's SH bytes, have fixed ends: a writer
+    that clamps there says how many splats it changed, one line per field."""
+    s = random_splats(200, degree=1, seed=5)
+    s.sh_dc[:] = np.clip(s.sh_dc, -1, 1)
+    s.sh_rest[:] = np.clip(s.sh_rest, -0.5, 0.5)
+    s.sh_dc[0, 1] = 9.0            # above dc 3.33 (byte 255)
+    s.sh_dc[1, 0] = -4.0           # below -3.33
+    s.sh_rest[2, 0, 0] = 1.5       # above spz's 0.992 (and within compressed PLY's 3.97)
+    s.sh_rest[3, 1, 2] = -6.0      # below both
+    s.sh_rest[4, 2, 1] = 5.0       # above both
+    write(tmp_path / "in.ply", s)
+    rc, _, err, _ = cli("convert", tmp_path / "in.ply", tmp_path / "out.spz")
+    assert rc == 0, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    out = tmp_path / "out.spz"
+    # spz turns the PLY's frame to its own (RUB): SH band 1 changes signs, so count there
+    assert lines[0] == (f"warning: {out}: 2 splats have colours (SH DC) outside what spz stores "
+                        "(-3.33 to 3.33): 1 clamped down to 3.33, 1 clamped up to -3.33"), err
+    assert lines[1].startswith(f"warning: {out}: 3 splats have higher SH outside what spz stores "
+                               "(-1 to 0.992): "), err
+    assert len(lines) == 2, err
+    back = read(out, axes="RUB")
+    assert back.sh_dc.max() <= 3.34 and back.sh_rest.min() >= -1.0
+    rc, _, err, _ = cli("convert", tmp_path / "in.ply", tmp_path / "out.compressed.ply")
+    assert rc == 0, err
+    assert [ln for ln in err.splitlines() if ln.strip()] == [
+        f"warning: {tmp_path / 'out.compressed.ply'}: 2 splats have higher SH outside what "
+        "compressed PLY stores (-4 to 3.97): 1 clamped down to 3.97, 1 clamped up to -4"], err
+    s.sh_rest[:] = np.clip(s.sh_rest, -0.9, 0.9)
+    s.sh_dc[:] = np.clip(s.sh_dc, -3, 3)
+    write(tmp_path / "fits.ply", s)
+    for name in ("fits.spz", "fits.compressed.ply"):  # within the ends: nothing to say
+        rc, _, err, _ = cli("convert", tmp_path / "fits.ply", tmp_path / name)
+        assert rc == 0 and err.strip() == "", (name, err)

@@ -12,6 +12,19 @@ from ..errors import SplatFormatError
 from ..quaternion import normalize_quats_  # noqa: F401  (the readers import it from here)
 
 
+def clamp_note(what: str, fmt: str, codes: np.ndarray, top: int, lo: str, hi: str) -> str | None:
+    """The line a writer prints when a byte-wide field could not hold some values: `codes`
+    (N, ...) are the unclipped codes, 0..top fits; lo and hi the values at the ends. None
+    when nothing was clamped (writers say what they change, and only then)."""
+    codes = codes.reshape(len(codes), -1)
+    low = int((codes < 0).any(axis=1).sum())
+    high = int((codes > top).any(axis=1).sum())
+    if not (low or high):
+        return None
+    return (f"{low + high} splats have {what} outside what {fmt} stores ({lo} to {hi}): "
+            f"{high} clamped down to {hi}, {low} clamped up to {lo}")
+
+
 def file_size(path) -> int:
     """Size of a regular, non-empty file; SplatFormatError for anything else."""
     try:

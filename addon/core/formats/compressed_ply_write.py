@@ -9,7 +9,7 @@ import numpy as np
 
 from ..sh import C0
 from ..splats import SplatSet
-from ._common import write_file
+from ._common import clamp_note, write_file
 from .compressed_ply import BOUNDS, CHUNK, COLOR_BOUNDS
 from .ply import ANTIALIASED_COMMENT, rest_names
 
@@ -53,7 +53,7 @@ def _pack_rotation(q: np.ndarray) -> np.ndarray:
     return packed
 
 
-def write_compressed_ply(path, splats: SplatSet) -> None:
+def write_compressed_ply(path, splats: SplatSet) -> list:
     s = splats.check().subset(_morton_order(splats.positions.astype(np.float64)))
     n, n_chunks = s.count, -(-s.count // CHUNK)
     owner = np.arange(n) // CHUNK
@@ -72,7 +72,8 @@ def write_compressed_ply(path, splats: SplatSet) -> None:
                        rgb[0] << 24 | rgb[1] << 16 | rgb[2] << 8 | alpha], axis=1).astype("<u4")
     k = s.sh_rest.shape[1]
     # reader: v -> (v + 0.5) / 256 * 8 - 4, so the nearest v is floor((x + 4) * 32)
-    sh = np.clip(np.floor((s.sh_rest.transpose(0, 2, 1).reshape(n, 3 * k) + 4.0) * 32), 0, 255).astype(np.uint8)
+    codes = np.floor((s.sh_rest.transpose(0, 2, 1).reshape(n, 3 * k) + 4.0) * 32)
+    sh = np.clip(codes, 0, 255).astype(np.uint8)
     lines = ["ply", "format binary_little_endian 1.0", "comment written by Splatline"]
     lines += [f"comment {ANTIALIASED_COMMENT}"] if s.antialiased else []
     lines += [f"element chunk {n_chunks}"]
@@ -84,3 +85,6 @@ def write_compressed_ply(path, splats: SplatSet) -> None:
     lines += ["end_header", ""]
     parts = ["\n".join(lines).encode("ascii"), chunk, vertex] + ([sh] if k else [])
     write_file(path, *parts)
+    # its colours, positions and scales take each chunk's own range: only SH has fixed ends
+    note = clamp_note("higher SH", "compressed PLY", codes, 255, "-4", f"{255 / 32 - 4:.3g}") if k else None
+    return [note] if note else []

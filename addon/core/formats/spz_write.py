@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..reframe import reframe
 from ..splats import AXES_RUB, SplatSet
-from ._common import write_file
+from ._common import clamp_note, write_file
 from .spz import COLOR_SCALE, FLAG_ANTIALIASED, MAGIC
 
 VERSIONS = (3, 4)
@@ -92,12 +92,22 @@ def scale_note(splats: SplatSet) -> str | None:
     """A byte holds (log s + 10) * 16, so spz stores linear scales from e^-10 (4.5e-05) to
     e^5.94 (379) only; the writer clamps the rest. Say how many splats that changed."""
     codes = _round((np.log(np.maximum(splats.scales.astype(np.float64), 1e-30)) + 10.0) * 16.0)
-    low, high = int((codes < 0).any(axis=1).sum()), int((codes > 255).any(axis=1).sum())
-    if not (low or high):
+    return clamp_note("scales", "spz", codes, 255, f"{np.exp(-10.0):.2g}", f"{np.exp(255 / 16 - 10.0):.3g}")
+
+
+def color_note(splats: SplatSet) -> str | None:
+    """A byte holds dc * 0.15 * 255 + 127.5: spz stores SH DC from -3.33 to 3.33 only."""
+    codes = _round(splats.sh_dc.astype(np.float64) * (COLOR_SCALE * 255.0) + 0.5 * 255.0)
+    span = 127.5 / (COLOR_SCALE * 255.0)
+    return clamp_note("colours (SH DC)", "spz", codes, 255, f"{-span:.3g}", f"{span:.3g}")
+
+
+def sh_note(splats: SplatSet) -> str | None:
+    """A byte holds rest * 128 + 128: spz stores higher SH from -1 to 0.992 only."""
+    if splats.sh_rest.size == 0:
         return None
-    lo, hi = np.exp(-10.0), np.exp(255 / 16 - 10.0)
-    return (f"{low + high} splats have scales outside what spz stores ({lo:.2g} to {hi:.3g}): "
-            f"{high} clamped down to {hi:.3g}, {low} clamped up to {lo:.2g}")
+    codes = _round(splats.sh_rest.astype(np.float64) * 128.0) + 128.0
+    return clamp_note("higher SH", "spz", codes, 255, "-1", f"{127 / 128:.3g}")
 
 
 def encode_blocks(splats: SplatSet) -> tuple[int, list]:
@@ -115,9 +125,17 @@ def encode_blocks(splats: SplatSet) -> tuple[int, list]:
 
 
 def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
+    return _encode(_turned(splats), version)
+
+
+def _turned(splats: SplatSet) -> SplatSet:
+    """The splats in spz's frame (RUB), as the file holds them: what its bytes clamp."""
+    return reframe(splats.check(), AXES_RUB)
+
+
+def _encode(splats: SplatSet, version: int) -> bytes:
     if version not in VERSIONS:
         raise SplatFormatError(None, f"cannot write spz version {version} (writable: 3, 4)")
-    splats = reframe(splats.check(), AXES_RUB)
     frac, blocks = encode_blocks(splats)
     n, degree = splats.count, splats.sh_degree
     flags = FLAG_ANTIALIASED if splats.antialiased else 0
@@ -136,10 +154,11 @@ def encode_spz(splats: SplatSet, version: int = 4) -> bytes:
 
 
 def write_spz(path, splats: SplatSet, version: int = 4) -> list:
-    """Write the file; returns its notes (scale_note: scales spz had to clamp)."""
+    """Write the file; returns its notes (what spz had to clamp: scales, colours, SH)."""
     try:
-        data = encode_spz(splats, version)
+        turned = _turned(splats)
+        data = _encode(turned, version)
     except SplatFormatError as exc:
         raise SplatFormatError(path, exc.reason) from None
     write_file(path, data)
-    return [note for note in (scale_note(splats),) if note]
+    return [note for note in (scale_note(turned), color_note(turned), sh_note(turned)) if note]

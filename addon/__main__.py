@@ -112,23 +112,34 @@ def _os_error_text(exc: OSError) -> str:
 
 
 def main(argv=None, prog: str = "python -m addon") -> int:
-    args, unknown = _parser(prog).parse_known_args(argv)
-    if unknown:  # the sub-command's usage, not the top level's, and a guess at a misspelling
-        _unrecognized(args.command_parser, unknown)
-    module = _command_module(args.command)
-    # a command's budget and record of what it replaced are its own: tests and scripts run
-    # several commands in one process, and a later read must not count an earlier plan
-    budget.set_max_memory(args.max_memory)
-    atomic.forget_attempts()
-    try:
-        with _sigterm_as_sigint() as terminated:
+    # SIGTERM is a stop from here on: on a loaded machine the parser's imports alone took
+    # over a second, and a SIGTERM then ended the process by the signal, unreported
+    with _sigterm_as_sigint() as terminated:
+        try:
+            args, module = _command(argv, prog)
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+            return 130
+        # a command's budget and record of what it replaced are its own: tests and scripts run
+        # several commands in one process, and a later read must not count an earlier plan
+        budget.set_max_memory(args.max_memory)
+        atomic.forget_attempts()
+        try:
             rc = _run(module, args)
-    finally:
-        budget.after_read(None)
+        finally:
+            budget.after_read(None)
     if terminated and rc == 0:  # caught where Blender swallows exceptions (a handler): the work
         print(_interrupted("interrupted (SIGTERM)"), file=sys.stderr)  # finished whole, but still a stop
         return 130
     return rc
+
+
+def _command(argv, prog):
+    """(parsed arguments, the command's module)."""
+    args, unknown = _parser(prog).parse_known_args(argv)
+    if unknown:  # the sub-command's usage, not the top level's, and a guess at a misspelling
+        _unrecognized(args.command_parser, unknown)
+    return args, _command_module(args.command)
 
 
 def _interrupted(head: str = "interrupted") -> str:

@@ -15,6 +15,39 @@ def start(blend_path=None):
     `pip install .` without the blender extra), one line says what to install. A .blend
     Blender cannot read is a SplatFormatError naming it, and nothing else is printed.
     """
+    with _stops_held():
+        return _start(blend_path)
+
+
+@contextlib.contextmanager
+def _stops_held():
+    """SIGINT and SIGTERM wait while Blender starts: a KeyboardInterrupt raised inside bpy's
+    import left a half-made Blender that crashed the process (SIGSEGV, measured on 5.0 and
+    5.3 with SIGTERM 0.3-0.4 s after start). A stop asked for meanwhile is delivered to the
+    command's own handler as soon as Blender is whole."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    asked = []
+    held = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        old = signal.getsignal(sig)
+        if callable(old):  # a Python handler, which would raise inside Blender's C code
+            held[sig] = old
+            signal.signal(sig, lambda signum, _frame: asked.append(signum))
+    try:
+        yield
+    finally:
+        for sig, old in held.items():
+            signal.signal(sig, old)
+        for signum in dict.fromkeys(asked):
+            signal.raise_signal(signum)
+
+
+def _start(blend_path):
     try:
         import bpy
     except ImportError as exc:

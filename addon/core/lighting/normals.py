@@ -1,0 +1,55 @@
+"""Splat normals for lighting: each splat's shortest axis, in world space, turned to face the
+viewer. A trained surface is mostly flat splats lying in it, so the axis a splat is thinnest
+along is the surface's normal there (bench/lighting_normals_bench.py measures how well, on
+generated captures with a known surface); a round splat has no such axis, and its normal is
+only as good as its noise.
+
+The sign: a splat is a thin two-sided sheet. The side that shows is the one the viewer looks
+at, so the normal is turned towards `eye` (the scene camera's position, the same in every
+path: a frame stays a function of the scene). A light behind the sheet, seen from the
+viewer's side, then lights nothing, as a mesh plane's back would show."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def shortest_axes(rotations: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """(N, 3) float64 unit object-space axes along each splat's smallest scale (wxyz quaternions;
+    a zero quaternion counts as the identity)."""
+    q = np.asarray(rotations, np.float64)
+    norm = np.linalg.norm(q, axis=1)
+    q = np.where((norm > 0)[:, None], q / np.where(norm > 0, norm, 1.0)[:, None], [1.0, 0, 0, 0])
+    w, x, y, z = q.T
+    axis = np.argmin(np.asarray(scales), axis=1)
+    # the rotation matrix's column `axis`, computed for that column alone
+    out = np.empty((len(q), 3))
+    c0, c1, c2 = axis == 0, axis == 1, axis == 2
+    out[c0] = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], 1)[c0]
+    out[c1] = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], 1)[c1]
+    out[c2] = np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], 1)[c2]
+    return out
+
+
+def world_normals(axes: np.ndarray, world: np.ndarray) -> np.ndarray:
+    """Object-space normals to unit world-space ones: by the inverse transpose of the world
+    matrix's 3x3 (a non-uniform scale tilts normals the other way from the surface)."""
+    linear = np.asarray(world, np.float64)[:3, :3]
+    normal_matrix = np.linalg.inv(linear).T
+    n = axes @ normal_matrix.T
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return n / np.where(length > 0, length, 1.0)
+
+
+def facing(normals: np.ndarray, points: np.ndarray, eye) -> np.ndarray:
+    """The normals, each turned to the side of its splat that `eye` sees."""
+    towards = np.asarray(eye, np.float64)[None, :] - points
+    flip = np.einsum("ij,ij->i", normals, towards) < 0
+    return np.where(flip[:, None], -normals, normals)
+
+
+def splat_normals(splats, world: np.ndarray, eye) -> tuple[np.ndarray, np.ndarray]:
+    """(world-space centres, unit world normals facing eye), float64."""
+    world = np.asarray(world, np.float64)
+    points = splats.positions.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+    normals = world_normals(shortest_axes(splats.rotations, splats.scales), world)
+    return points, facing(normals, points, eye)

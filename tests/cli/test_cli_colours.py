@@ -78,7 +78,7 @@ def test_render_of_a_bare_capture_is_the_reference_frame(bpy_empty, testdata, tm
 
 
 def test_imported_scene_renders_the_reference_frame(bpy_empty, testdata, tmp_path):
-    from addon.blender.render.world import world_background
+    from addon.blender.data.world import world_background
     from addon.core.colorspace import composite_over, linear_to_srgb, premultiplied_srgb_to_linear
 
     blend = tmp_path / "guitar.blend"

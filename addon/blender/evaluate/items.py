@@ -26,6 +26,7 @@ from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import ARRAYS
 from . import effect_params
 from .instancers import may_instance_splats
+from .lighting import amount as lighting_amount, clear as clear_lighting, lit_item, scene_lighting
 from ..registration import app_handlers
 from ..data.source_kind import SourceFrame
 from ..data.sources import is_splat_object, source_of
@@ -204,14 +205,20 @@ def collect_items(depsgraph, defer=None) -> list[RenderItem]:
     """The items of every splat object and instance drawn. A source is evaluated once: its
     instances are its item (the same splats, key, look and effects) at their own world
     matrices, so a renderer uploads their splats once and sorts them all as one set."""
-    items, evaluated = [], {}
+    items, evaluated, lighting = [], {}, None
     for obj, world, path in splat_instances(depsgraph):
         ident = source_ident(obj)
+        level = lighting_amount(obj)
         if ident not in evaluated:
-            evaluated[ident] = item_for(obj, depsgraph, defer) if shown(obj) else None
+            # lit colours come after every effect: none is left to the renderer then
+            evaluated[ident] = item_for(obj, depsgraph, None if level > 0 else defer) if shown(obj) else None
         item = evaluated[ident]
         if item is not None:
-            items.append(placed(item, world, path))
+            item = placed(item, world, path)
+            if level > 0:
+                lighting = lighting or scene_lighting(depsgraph)
+                item = lit_item(item, lighting, level, depsgraph)
+            items.append(item)
     return items
 
 
@@ -236,6 +243,7 @@ def _on_depsgraph_update(_scene, depsgraph):
 @bpy.app.handlers.persistent
 def _on_load(*_args):
     CACHE.clear()
+    clear_lighting()
     effect_params.TARGETS.clear()
     BUFFERS.clear()  # kept output buffers (a morph's sh_rest) of the old file's splats
 

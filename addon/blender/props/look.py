@@ -50,6 +50,12 @@ class LookSettings(bpy.types.PropertyGroup):
     hue: FloatProperty(name="Hue Shift", default=0.0, subtype="ANGLE", soft_min=-math.pi,
                        soft_max=math.pi, update=tag_eval,
                        description="Turns the chroma about the grey axis, keeping luma")
+    lighting: FloatProperty(name="Lighting", default=0.0, min=0.0, max=1.0, subtype="FACTOR",
+                            update=tag_eval,
+                            description="How much the scene's lights and World light the splats "
+                                        "(their colour as albedo; Lambert, Cycles' units; meshes "
+                                        "and the splats cast shadows). 0: as captured. Splatline's "
+                                        "engine and viewport; Blender's own engines do not light splats")
     max_sh_degree: IntProperty(name="Max SH Degree", default=3, min=0, max=3, update=tag_eval,
                                description="Ignore spherical-harmonic bands above this degree")
     __annotations__.update(_crop_props("crop_box", "Box"))

@@ -34,7 +34,7 @@ from ..registration import app_handlers
 from ..evaluate.holdout_geometry import clear_cache as clear_holdout_cache, holdout_for
 from ..evaluate.items import any_antialiased, collect_items
 from .film import blender_depth, region_camera, render_region, result_rect
-from .world import world_background
+from ..data.world import world_background
 
 
 class _RendererHolder:

@@ -102,7 +102,8 @@ class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         look = context.object.splatline.look
-        for name in ("visible", "opacity", "size", "tint", "exposure", "saturation", "hue", "max_sh_degree"):
+        for name in ("visible", "opacity", "size", "tint", "exposure", "saturation", "hue", "lighting",
+                     "max_sh_degree"):
             layout.prop(look, name)
         layout.prop(context.object.splatline, "antialiased")
 

@@ -16,6 +16,7 @@ import bpy
 
 from ..evaluate import items as evaluate
 from ..evaluate.instancers import may_instance_splats
+from ..evaluate.lighting import amount as lighting_amount, lit_item, scene_lighting
 from ..data import native
 from ..data.sources import is_splat_object, source_of
 from .effect_rows import on_gpu
@@ -204,19 +205,24 @@ class SceneItems:
         """The items and display options of what this viewport shows: each source read once
         a draw, its instances drawn from its item (they share its arrays)."""
         items, displays = [], []
-        seen, fresh = set(), {}
+        seen, fresh, lighting = set(), {}, None
         for obj_eval, original, depsgraph, world, path in self.visible(context):
             ident = evaluate.source_ident(obj_eval)
+            level = lighting_amount(obj_eval)
             if ident not in fresh:
                 seen.add(original.name_full)
-                fresh[ident] = self._item(obj_eval, original, depsgraph)
-            items.append(evaluate.placed(fresh[ident], world, path))
+                fresh[ident] = self._item(obj_eval, original, depsgraph, level)
+            item = evaluate.placed(fresh[ident], world, path)
+            if level > 0:  # relit only when the lights, World, camera or meshes changed
+                lighting = lighting or scene_lighting(depsgraph)
+                item = lit_item(item, lighting, level, depsgraph)
+            items.append(item)
             displays.append(display_for(original))
         for name in set(self.items) - seen:  # deleted or hidden: let their data go
             del self.items[name]
         return items, displays
 
-    def _item(self, obj_eval, original, depsgraph):
+    def _item(self, obj_eval, original, depsgraph, level=0.0):
         """The object's item at its own place, read again only when its version changed."""
         name = original.name_full
         version = self.versions.setdefault(name, 0)
@@ -230,7 +236,7 @@ class SceneItems:
             # the evaluator's own key: with the arrays' identities it decides what
             # the renderer re-uploads (an effect that only fades uploads one texture)
             # colour effects the preprocess pass can apply are left to it
-            item = evaluate.item_for(obj_eval, depsgraph, defer=on_gpu)
+            item = evaluate.item_for(obj_eval, depsgraph, defer=None if level > 0 else on_gpu)
         else:
             item = replace(cached[1], world=world)
         self.items[name] = (version, item, ident)

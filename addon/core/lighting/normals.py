@@ -48,8 +48,9 @@ def facing(normals: np.ndarray, points: np.ndarray, eye) -> np.ndarray:
 
 
 def splat_normals(splats, world: np.ndarray, eye) -> tuple[np.ndarray, np.ndarray]:
-    """(world-space centres, unit world normals facing eye), float64."""
+    """(world-space centres, unit world normals facing eye), float64. eye None (no camera):
+    the normals as the rotations give them, and the shading takes both sides as lit."""
     world = np.asarray(world, np.float64)
     points = splats.positions.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
     normals = world_normals(shortest_axes(splats.rotations, splats.scales), world)
-    return points, facing(normals, points, eye)
+    return points, (normals if eye is None else facing(normals, points, eye))

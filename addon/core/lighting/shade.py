@@ -46,19 +46,23 @@ class Lighting:
     point normals face (the scene camera), and whether lights cast shadows."""
     lights: tuple = ()
     ambient: tuple = (0.0, 0.0, 0.0)
-    eye: tuple = (0.0, 0.0, 0.0)
+    eye: tuple | None = (0.0, 0.0, 0.0)   # None: no camera, both sides of a splat lit
 
 
-def irradiance(light: Light, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """(N,) E_l * max(0, n . l) of one light (colour apart), W/m^2."""
+def _cosine(cos: np.ndarray, two_sided: bool) -> np.ndarray:
+    return np.abs(cos) if two_sided else np.maximum(cos, 0.0)
+
+
+def irradiance(light: Light, points: np.ndarray, normals: np.ndarray, two_sided: bool = False) -> np.ndarray:
+    """(N,) E_l * max(0, n . l) of one light (colour apart), W/m^2; two-sided: |n . l|."""
     if light.kind == "SUN":
         to_light = -light.direction_array / np.linalg.norm(light.direction_array)
-        return light.strength * np.maximum(normals @ to_light, 0.0)
+        return light.strength * _cosine(normals @ to_light, two_sided)
     offset = light.position_array[None, :] - points
     d2 = np.einsum("ij,ij->i", offset, offset)
     d2 = np.maximum(d2, 1e-12)
     l = offset / np.sqrt(d2)[:, None]
-    cos_n = np.maximum(np.einsum("ij,ij->i", normals, l), 0.0)
+    cos_n = _cosine(np.einsum("ij,ij->i", normals, l), two_sided)
     axis = light.direction_array / np.linalg.norm(light.direction_array)
     cos_axis = -(l @ axis)  # the angle off the light's axis, seen from the light
     if light.kind == "AREA":
@@ -85,7 +89,7 @@ def radiance_factor(lighting: Lighting, points: np.ndarray, normals: np.ndarray,
     visibility: None, or one (N,) array in [0, 1] per light (shadows.py), in lights' order."""
     out = np.broadcast_to(np.asarray(lighting.ambient, np.float64), (len(points), 3)).copy()
     for i, light in enumerate(lighting.lights):
-        e = irradiance(light, points, normals) / np.pi
+        e = irradiance(light, points, normals, lighting.eye is None) / np.pi
         if visibility is not None and visibility[i] is not None:
             e = e * visibility[i]
         out += e[:, None] * np.asarray(light.color, np.float64)[None, :]

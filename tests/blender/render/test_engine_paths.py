@@ -21,7 +21,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from addon.blender.render.world import world_background
+from addon.blender.data.world import world_background
 from addon.blender.render.film import BACKGROUND_DEPTH
 from testing.engine_paths_scene import reference_frame, render_exr, to_display, two_object_scene
 from testing.viewport_scene import psnr

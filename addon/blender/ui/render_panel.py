@@ -15,6 +15,8 @@ ENGINE = "SPLATLINE"
 NATIVE_ENGINES = frozenset({"BLENDER_EEVEE", "BLENDER_EEVEE_NEXT", "CYCLES", "BLENDER_WORKBENCH"})
 SPLATLINE_HINT = "Blends in sRGB as trained; EEVEE/Cycles blend in linear light"
 NATIVE_HINT = "Splats blend in linear light; Splatline engine: trained look"
+# measured on 5.3.0: a sun and a point light leave EEVEE's and Cycles' splats bit-identical
+NATIVE_LIGHT_HINT = "Lights do not light splats here; Splatline engine: Look > Lighting"
 
 
 class SPLATLINE_PT_render(bpy.types.Panel):
@@ -114,6 +116,7 @@ def _draw_engine_hint(self, context) -> None:
     text = engine_hint(context)
     if text:
         self.layout.label(text=text, icon="INFO")
+        self.layout.label(text=NATIVE_LIGHT_HINT, icon="LIGHT")
         self.layout.prop(context.scene.splatline.render, "native_outliers")
 
 

@@ -7,8 +7,9 @@ the triangles in float64 (Moeller-Trumbore, both faces, edges inclusive), and an
 than `bias` from the centre blocks the light. Fast path: the centres and the triangles are
 projected into the light's view (an orthographic plane for a sun; for a light at a point, the
 six faces of a cube around it), the centres binned in a grid, and each triangle tested only
-against the centres in the cells its projection's box covers; a triangle that crosses a cube
-face's plane is tested against all of that face's centres. Same tests, same float64, so the
+against the centres in the cells its projection's box covers; a triangle wholly behind a cube
+face's plane (through the light) is skipped for that face, and one that crosses it is tested
+against all of that face's centres. Same tests, same float64, so the
 fast path gives the brute-force reference's answer exactly (`mesh_visibility_reference`).
 
 Splats shadow splats through their opacity seen from the light, a transmittance map: the
@@ -139,13 +140,17 @@ def mesh_visibility(points, light: Light, triangles, bias: float | None = None) 
         grid = _Grid(uv)
         tri_uv = project(tris.reshape(-1, 3)).reshape(len(tris), 3, 2)
         for t, corners in enumerate(tri_uv):
-            if np.isnan(corners).any():  # crosses this face's plane: every centre of the face
+            behind = np.isnan(corners[:, 0])
+            if behind.all():  # behind this face's plane: no segment to its centres meets it
+                continue
+            if behind.any():  # crosses the plane: every centre of the face
                 cand = np.arange(len(idx))
             else:
                 cand = grid.inside(corners.min(axis=0), corners.max(axis=0))
-            if len(cand):
-                sel = idx[cand]
-                lit[sel] &= ~_ray_hits(pts[sel], ends[sel], tris[t], bias)
+            sel = idx[cand]
+            sel = sel[lit[sel]]  # a centre already in shadow needs no more tests
+            if len(sel):
+                lit[sel] = ~_ray_hits(pts[sel], ends[sel], tris[t], bias)
     return lit.astype(np.float64)
 
 

@@ -57,7 +57,7 @@ def test_blenders_engines_get_the_linear_light_line_only_with_splats_and_native_
     cycles = SimpleNamespace(scene=scene, engine="CYCLES")
     assert _engine_panel_draws(bpy, cycles) == []  # no splat object: nothing to say
     add_splats(bpy, "s", flat_splats(np.zeros((4, 3)), np.full((4, 3), 0.5)))
-    expected = [render_panel.NATIVE_HINT] if native.has_native_splats() else []
+    expected = [render_panel.NATIVE_HINT, render_panel.NATIVE_LIGHT_HINT] if native.has_native_splats() else []
     for engine in ("CYCLES", "BLENDER_WORKBENCH", "BLENDER_EEVEE"):
         record = _engine_panel_draws(bpy, SimpleNamespace(scene=scene, engine=engine))
         _check_names_exist(bpy, record)
@@ -65,4 +65,5 @@ def test_blenders_engines_get_the_linear_light_line_only_with_splats_and_native_
     # Splatline's own engine, and engines that do not render Blender's splats: no line
     for engine in (render_panel.ENGINE, "SOME_OTHER_ENGINE"):
         assert _engine_panel_draws(bpy, SimpleNamespace(scene=scene, engine=engine)) == []
-    assert "\n" not in render_panel.NATIVE_HINT and len(render_panel.NATIVE_HINT) <= 64
+    for line in (render_panel.NATIVE_HINT, render_panel.NATIVE_LIGHT_HINT):
+        assert "\n" not in line and len(line) <= 70

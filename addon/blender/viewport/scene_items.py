@@ -101,6 +101,13 @@ def by_full_name() -> dict:
     return {obj.name_full: obj for obj in bpy.data.objects}
 
 
+def lit_shading(space) -> bool:
+    """Look > Lighting shows in Material Preview and Rendered shading, as Blender's own
+    lights do (and where no 3D view is known: scripts, tests)."""
+    shading = getattr(space, "shading", None)
+    return shading is None or shading.type in {"MATERIAL", "RENDERED"}
+
+
 def _drawn(depsgraph):
     """(evaluated object, world, instance path, the original whose visibility decides) of
     what the depsgraph draws: its objects, and their instances where some object may
@@ -206,9 +213,10 @@ class SceneItems:
         a draw, its instances drawn from its item (they share its arrays)."""
         items, displays = [], []
         seen, fresh, lighting = set(), {}, None
+        shaded = lit_shading(context.space_data)
         for obj_eval, original, depsgraph, world, path in self.visible(context):
             ident = evaluate.source_ident(obj_eval)
-            level = lighting_amount(obj_eval)
+            level = lighting_amount(obj_eval) if shaded else 0.0
             if ident not in fresh:
                 seen.add(original.name_full)
                 fresh[ident] = self._item(obj_eval, original, depsgraph, level)

@@ -21,6 +21,7 @@ GPU_MODULE_TESTS = frozenset({
     "blender/viewport/test_viewport.py",
     "blender/viewport/test_viewport_blender.py",
     "blender/viewport/test_viewport_declared_path.py",
+    "blender/viewport/test_viewport_lighting.py",
     "blender/evaluate/test_splat_sources.py",
     "blender/viewport/test_viewport_display_modes.py",
     "blender/viewport/test_viewport_effects.py",

@@ -114,27 +114,25 @@ def _reach(pts, triangles) -> float:
 
 def mesh_visibility_reference(points, light: Light, triangles, bias: float | None = None) -> np.ndarray:
     """Every centre against every triangle: the readable reference of mesh_visibility."""
-    pts = np.asarray(points, np.float64)
-    tris = np.asarray(triangles, np.float64)
-    bias = _bias(pts, tris) if bias is None else bias
-    ends = _segments_end(pts, light, _reach(pts, tris))
+    pts, tris, ends, bias = _segments(points, light, triangles, bias)
     lit = np.ones(len(pts), bool)
     for tri in tris:
         lit &= ~_ray_hits(pts, ends, tri, bias)
     return lit.astype(np.float64)
 
 
-def _bias(pts, tris) -> float:
-    """A millionth of the scene's size: a splat lying on a mesh is not shadowed by it."""
-    return 1e-6 * _reach(pts, tris)
+def _segments(points, light: Light, triangles, bias):
+    """(centres, triangles, the segments' far ends, bias), float64. The default bias is a
+    millionth of the scene's size: a splat lying on a mesh is not shadowed by it."""
+    pts = np.asarray(points, np.float64)
+    tris = np.asarray(triangles, np.float64)
+    reach = _reach(pts, tris)
+    return pts, tris, _segments_end(pts, light, reach), 1e-6 * reach if bias is None else bias
 
 
 def mesh_visibility(points, light: Light, triangles, bias: float | None = None) -> np.ndarray:
     """(N,) 0 or 1: whether the light reaches each centre past the triangles."""
-    pts = np.asarray(points, np.float64)
-    tris = np.asarray(triangles, np.float64)
-    bias = _bias(pts, tris) if bias is None else bias
-    ends = _segments_end(pts, light, _reach(pts, tris))
+    pts, tris, ends, bias = _segments(points, light, triangles, bias)
     lit = np.ones(len(pts), bool)
     for idx, uv, project in _views(pts, light):
         grid = _Grid(uv)
@@ -184,26 +182,36 @@ def splat_transmittance(points, splats, world, light: Light, cell: float | None 
                         depth_bias: float | None = None) -> np.ndarray:
     """(N,) the light's share that passes the other splats to each centre (see the module)."""
     pts = np.asarray(points, np.float64)
-    n = len(pts)
+    alpha, cell, depth_bias = _occluding(splats, world, cell, depth_bias)
+    log_pass = np.log1p(-alpha)
+    out = np.ones(len(pts))
+    for idx, uv, depth, size in _light_cells(pts, light, cell):
+        out[idx] = _passing(uv, depth, log_pass[idx], size, depth_bias)
+    return out
+
+
+def _occluding(splats, world, cell, depth_bias):
+    """(each splat's opacity share of a cell, at most 0.999; the cell; the depth bias)."""
     scales = np.sort(np.asarray(splats.scales, np.float64), axis=1)
     if world is not None:
         scales = scales * float(np.cbrt(abs(np.linalg.det(np.asarray(world, np.float64)[:3, :3]))))
     if cell is None:
-        cell = 4.0 * float(np.median(scales[:, 2])) if n else 1.0
+        cell = 4.0 * float(np.median(scales[:, 2])) if len(scales) else 1.0
     depth_bias = 2.0 * cell if depth_bias is None else depth_bias
     alpha = np.asarray(splats.opacities, np.float64) * np.minimum(
         1.0, 2 * np.pi * scales[:, 1] * scales[:, 2] / (cell * cell))
-    log_pass = np.log1p(-np.minimum(alpha, 0.999))
-    out = np.ones(n)
+    return np.minimum(alpha, 0.999), cell, depth_bias
+
+
+def _light_cells(pts, light: Light, cell: float):
+    """Per light view: (indices, 2D coordinates, depth from the light, the cell in the view's
+    units: a sun's plane keeps world units, a cube face's are tangents)."""
     for idx, uv, _ in _views(pts, light):
         if light.kind == "SUN":
-            depth = pts[idx] @ (light.direction_array / np.linalg.norm(light.direction_array))
-            size = cell
+            yield idx, uv, pts[idx] @ (light.direction_array / np.linalg.norm(light.direction_array)), cell
         else:
             depth = np.linalg.norm(pts[idx] - light.position_array, axis=1)
-            size = cell / max(float(np.median(depth)), _EPS)  # the cell, in the face's units
-        out[idx] = _passing(uv, depth, log_pass[idx], size, depth_bias)
-    return out
+            yield idx, uv, depth, cell / max(float(np.median(depth)), _EPS)
 
 
 def _passing(uv, depth, log_pass, size, depth_bias) -> np.ndarray:
@@ -227,21 +235,9 @@ def splat_transmittance_reference(points, splats, world, light: Light, cell: flo
     """The same map, one centre at a time: the product of 1 - a over the splats in its cell
     nearer the light by more than depth_bias (a reference for small sets)."""
     pts = np.asarray(points, np.float64)
+    alpha, cell, depth_bias = _occluding(splats, world, cell, depth_bias)
     out = np.ones(len(pts))
-    scales = np.sort(np.asarray(splats.scales, np.float64), axis=1)
-    if world is not None:
-        scales = scales * float(np.cbrt(abs(np.linalg.det(np.asarray(world, np.float64)[:3, :3]))))
-    cell = 4.0 * float(np.median(scales[:, 2])) if cell is None else cell
-    depth_bias = 2.0 * cell if depth_bias is None else depth_bias
-    alpha = np.minimum(np.asarray(splats.opacities, np.float64) * np.minimum(
-        1.0, 2 * np.pi * scales[:, 1] * scales[:, 2] / (cell * cell)), 0.999)
-    for idx, uv, _ in _views(pts, light):
-        if light.kind == "SUN":
-            depth = pts[idx] @ (light.direction_array / np.linalg.norm(light.direction_array))
-            size = cell
-        else:
-            depth = np.linalg.norm(pts[idx] - light.position_array, axis=1)
-            size = cell / max(float(np.median(depth)), _EPS)
+    for idx, uv, depth, size in _light_cells(pts, light, cell):
         cells = np.floor((uv - uv.min(axis=0)) / size).astype(np.int64)
         for a in range(len(idx)):
             same = (cells == cells[a]).all(axis=1) & (depth < depth[a] - depth_bias)

@@ -28,7 +28,7 @@ if "numpy" not in sys.modules and sys.argv[1:2] and sys.argv[1] not in BLAS_COMM
 import numpy as np  # noqa: E402 (after the thread count)
 
 from .cli import UsageError, UserError
-from .core import atomic, budget
+from .core import atomic, budget, stop
 from .core.errors import SplatFormatError
 
 COMMANDS = {
@@ -166,13 +166,16 @@ def _sigterm_as_sigint():
 
     def handler(signum, frame):
         terminated.append(signum)
+        stop.terminate()
         raise KeyboardInterrupt
 
+    stop.forget_termination()
     old = signal.signal(signal.SIGTERM, handler)
     try:
         yield terminated
     finally:
         signal.signal(signal.SIGTERM, old)
+        stop.forget_termination()
 
 
 def _run(module, args) -> int:

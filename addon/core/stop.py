@@ -18,6 +18,10 @@ import sys
 import threading
 
 _STOP = threading.Event()
+# A SIGTERM to the command line: it outlasts the jobs' own clears. Its KeyboardInterrupt can
+# be swallowed where Blender calls Python (a handler run during an import), and a 10M-splat
+# render then went on for 19 s; the flag still stops the job at its first check.
+_TERMINATED = threading.Event()
 
 
 def request_stop():
@@ -25,6 +29,19 @@ def request_stop():
 
 
 def clear_stop():
+    if not _TERMINATED.is_set():
+        _STOP.clear()
+
+
+def terminate():
+    """The command was asked to end (SIGTERM): every job it starts stops at once."""
+    _TERMINATED.set()
+    _STOP.set()
+
+
+def forget_termination():
+    """A new command in this process (tests, scripts) starts without the last one's SIGTERM."""
+    _TERMINATED.clear()
     _STOP.clear()
 
 

@@ -36,7 +36,17 @@ def cpu_records(items, camera, options) -> tuple[np.ndarray, int]:
         on = (u + r >= 0) & (u - r <= camera.width) & (v + r >= 0) & (v - r <= camera.height)
     depth = np.where(on, rec[1, :, 2], np.inf)
     order = back_to_front(depth, options.key_bits, np.isfinite(depth))
-    return rec[:, order].astype(np.float32), int(order.size)
+    return _gathered(rec, order), int(order.size)
+
+
+def _gathered(rec: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """rec[:, order] as float32, a block at a time: no float64 copy of the whole gather, and
+    a stop seen between blocks (10M splats' gather took 10 s here)."""
+    out = np.empty((3, order.size, 4), np.float32)
+    for start in range(0, order.size, _BLOCK):
+        stop.check()
+        out[:, start:start + _BLOCK] = rec[:, order[start:start + _BLOCK]]
+    return out
 
 
 def _item_records(item, camera, options) -> np.ndarray:

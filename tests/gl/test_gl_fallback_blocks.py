@@ -21,6 +21,13 @@ def test_blocked_records_equal_one_projection(monkeypatch):
     assert np.isfinite(whole[1, :, 2]).sum() > 100  # splats in view
 
 
+def test_blocked_gather_equals_one_gather(monkeypatch):
+    rec = np.random.default_rng(5).normal(size=(3, 2500, 4))
+    order = np.random.default_rng(6).permutation(2500)[:2100]
+    monkeypatch.setattr(fallback, "_BLOCK", 600)
+    np.testing.assert_array_equal(fallback._gathered(rec, order), rec[:, order].astype(np.float32))
+
+
 def test_a_stop_between_blocks_ends_the_projection(monkeypatch):
     import pytest
 

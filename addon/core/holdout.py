@@ -25,7 +25,8 @@ near < depth <= far (clip start excluded, clip end included); elsewhere, and whe
 triangle is hit, the depth is inf.
 
 What is approximate (docs/rendering.md): transparent or alpha-blended meshes hide as if
-opaque, splats appear in no reflection or refraction, and they cast no shadows.
+opaque, splats appear in no reflection or refraction, and they cast no shadows on meshes
+(meshes shadow lit splats: core/lighting/shadows.py).
 """
 from __future__ import annotations
 

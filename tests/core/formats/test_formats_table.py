@@ -18,13 +18,16 @@ from addon.core import formats
 from addon.core.errors import SplatFormatError
 from addon.core.formats import table
 from addon.core.splats import SplatSet
+from testing.ksplat_write import write_ksplat
 from testing.webp_support import STRAIGHT_WEBP
 
 # Each row's capture in ../shared/testdata; a new row fails test_every_row_has_a_capture
 # until it names one. gltf: the test64.glb capture's own document and buffer, unpacked from
 # the binary container into a .gltf with an embedded buffer (no .gltf capture is stored).
+# ksplat: guitar.ply written at level 2 by testing/ksplat_write.py (no .ksplat is stored).
 CAPTURES = {"ply": "guitar.ply", "compressed_ply": "guitar.compressed.ply", "splat": "guitar.splat",
-            "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb"}
+            "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb",
+            "ksplat": "guitar.ply"}
 
 
 def _glb_as_gltf(glb: bytes) -> bytes:
@@ -37,6 +40,10 @@ def _glb_as_gltf(glb: bytes) -> bytes:
 
 
 def _capture(name, testdata, tmp_path):
+    if name == "ksplat":
+        out = tmp_path / "guitar.ksplat"
+        write_ksplat(out, formats.read(testdata / CAPTURES[name]), level=2)
+        return out
     if name != "gltf":
         return testdata / CAPTURES[name]
     out = tmp_path / "test64.gltf"

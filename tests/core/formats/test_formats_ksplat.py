@@ -9,16 +9,18 @@ CI=true (tests/project/test_peers_present.py); elsewhere that half skips, saying
 from __future__ import annotations
 
 import os
+import subprocess
 
 import numpy as np
 import pytest
 
 from addon.core.errors import SplatFormatError
-from addon.core.formats import read, read_with_report, readfile
+from addon.core.formats import read, read_with_report, readfile, write
 from addon.core.sh import C0
 from bench.formats_bench import run_splat_transform
 from testing.ksplat_write import POSITION_RANGE, write_ksplat
-from testing.peers import missing_reason, splat_transform
+from testing.paths import REPO
+from testing.peers import gs3d_modules, missing_reason, splat_transform
 from testing.read_faults import hook
 from testing.reader_checks import fails
 from testing.synth import random_splats
@@ -91,7 +93,10 @@ def test_decode_matches_splat_transform(tmp_path, source, level, degree):
     path = _file(tmp_path, source, level, degree)
     ours = read(path)
     run_splat_transform(PEER, path, tmp_path / "peer.ply")
-    theirs = read(tmp_path / "peer.ply")
+    _same_decode(ours, read(tmp_path / "peer.ply"), degree)
+
+
+def _same_decode(ours, theirs, degree) -> None:
     assert theirs.count == ours.count and theirs.sh_degree == ours.sh_degree == degree
     eps = np.finfo(np.float32).eps
     np.testing.assert_allclose(ours.positions, theirs.positions, rtol=0, atol=8 * eps * np.abs(ours.positions).max())
@@ -146,3 +151,36 @@ def test_a_ksplat_that_shrinks_while_read_is_one_error(tmp_path, source, monkeyp
     with pytest.raises(SplatFormatError, match="shrank while it was read") as info:
         read(path)
     assert info.value.path == os.fspath(path)
+
+
+# --- files GaussianSplats3D writes itself (the pinned npm peer, testing/ksplat_peer.mjs) ---
+
+GS3D = gs3d_modules()
+
+
+@pytest.fixture(scope="module")
+def source_ply(tmp_path_factory, source):
+    path = tmp_path_factory.mktemp("gs3d") / "src.ply"
+    write(path, source.with_sh_degree(2))
+    return path
+
+
+@pytest.mark.skipif(GS3D is None, reason=missing_reason("gaussian-splats-3d"))
+@pytest.mark.skipif(PEER is None, reason=missing_reason("splat-transform"))
+@pytest.mark.parametrize("degree", DEGREES)
+@pytest.mark.parametrize("level", LEVELS)
+def test_gaussian_splats_3d_files_decode_as_splat_transform_decodes_them(tmp_path, source, source_ply, level, degree):
+    """The library buckets and reorders the splats, so the source is compared as a set of
+    positions (within the level's quantisation) and splat-transform's decode index for index."""
+    path = tmp_path / "gs3d.ksplat"
+    subprocess.run(["node", str(REPO / "testing" / "ksplat_peer.mjs"), str(GS3D), str(source_ply), str(path),
+                    str(level), str(degree)], check=True, capture_output=True, timeout=300)
+    ours = read(path)
+    assert ours.count == source.count and ours.sh_degree == degree
+    run_splat_transform(PEER, path, tmp_path / "peer.ply")
+    theirs = read(tmp_path / "peer.ply")
+    _same_decode(ours, theirs, degree)
+    # reordered: each axis's sorted coordinates match the source's within the level's step
+    # (the library's bucket block is 5 units: a u16 step of 5 / 2 / 32767)
+    step = 0.0 if level == 0 else 5.0 / 2 / POSITION_RANGE
+    assert np.abs(np.sort(ours.positions, axis=0) - np.sort(source.positions, axis=0)).max() <= step / 2 + 1e-5

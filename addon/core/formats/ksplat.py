@@ -86,7 +86,8 @@ def _bucket_of(path, f: OpenedFile, s: dict, i: int) -> np.ndarray:
     sizes = np.concatenate([np.full(s["full"], s["bucket_size"], np.int64), lengths])
     if sizes.sum() < s["count"]:
         raise SplatFormatError(path, f"section {i}: buckets hold {int(sizes.sum())} splats, fewer than its {s['count']}")
-    return np.repeat(np.arange(sizes.size), sizes)[:s["count"]]
+    # by search, not np.repeat: a hostile bucket size must not size an array
+    return np.searchsorted(np.cumsum(sizes), np.arange(s["count"]), side="right")
 
 
 def _rest(sh: np.ndarray, degree: int) -> np.ndarray:

@@ -21,8 +21,9 @@ GPU_BACKENDS := $(if $(filter 5.3,$(BLENDER)),VULKAN OPENGL,OPENGL)
 SPLATLINE_PEERS ?= $(HOME)/.cache/splatline-peers
 SPLATLINE_SPLAT_TRANSFORM ?= $(wildcard $(SPLATLINE_PEERS)/npm/node_modules/.bin/splat-transform)
 SPLATLINE_GSPLAT_JS ?= $(patsubst %/gsplat,%,$(wildcard $(SPLATLINE_PEERS)/npm/node_modules/gsplat))
+SPLATLINE_GS3D_JS ?= $(patsubst %/@mkkellogg,%,$(wildcard $(SPLATLINE_PEERS)/npm/node_modules/@mkkellogg))
 SPLATLINE_OPENJD ?= $(wildcard $(SPLATLINE_PEERS)/openjd/bin/openjd)
-export SPLATLINE_PEERS SPLATLINE_SPLAT_TRANSFORM SPLATLINE_GSPLAT_JS SPLATLINE_OPENJD
+export SPLATLINE_PEERS SPLATLINE_SPLAT_TRANSFORM SPLATLINE_GSPLAT_JS SPLATLINE_GS3D_JS SPLATLINE_OPENJD
 
 .PHONY: test test-matrix demo bench extension sysdeps peers clean
 

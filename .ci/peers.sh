@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install the peers, the outside tools that peer tests check Splatline against, pinned and
 # outside the repository, in $SPLATLINE_PEERS (default ~/.cache/splatline-peers):
-#   npm/     @playcanvas/splat-transform 3.7.0 and gsplat 1.2.9 (.ci/peers/package-lock.json)
+#   npm/     @playcanvas/splat-transform 3.7.0, gsplat 1.2.9 and @mkkellogg/gaussian-splats-3d
+#            0.4.7 with three 0.187.0 (.ci/peers/package-lock.json)
 #   openjd/  a venv with openjd-cli 0.8.0 (.ci/peers/openjd.txt)
 # fourdgs, a Python library the tests import, is pinned in requirements/blender-*.txt instead.
 # The Makefile passes the peers' paths to the tests when this folder holds them; for a shell,
@@ -42,4 +43,5 @@ fi
 "$peers/openjd/bin/openjd" --version >/dev/null
 echo "export SPLATLINE_SPLAT_TRANSFORM=$peers/npm/node_modules/.bin/splat-transform"
 echo "export SPLATLINE_GSPLAT_JS=$peers/npm/node_modules"
+echo "export SPLATLINE_GS3D_JS=$peers/npm/node_modules"
 echo "export SPLATLINE_OPENJD=$peers/openjd/bin/openjd"

@@ -16,10 +16,12 @@ from bench.formats_bench import splat_transform_command
 
 GSPLAT_ENV = "SPLATLINE_GSPLAT_JS"  # a node_modules folder that holds gsplat (npm), for node
 OPENJD_ENV = "SPLATLINE_OPENJD"     # the openjd executable (PyPI openjd-cli)
+GS3D_ENV = "SPLATLINE_GS3D_JS"      # a node_modules folder that holds @mkkellogg/gaussian-splats-3d and three
 TOOLS = "make peers (.ci/peers.sh) installs it outside the repository"
 
 # name -> the pinned version (.ci/peers/package-lock.json, .ci/peers/openjd.txt, requirements/)
-PINNED = {"splat-transform": "3.7.0", "gsplat": "1.2.9", "openjd": "0.8.0", "fourdgs": "0.6.0"}
+PINNED = {"splat-transform": "3.7.0", "gsplat": "1.2.9", "openjd": "0.8.0", "fourdgs": "0.6.0",
+          "gaussian-splats-3d": "0.4.7"}
 
 
 def splat_transform() -> list | None:
@@ -34,6 +36,16 @@ def gsplat_modules() -> pathlib.Path | None:
         return None
     folder = pathlib.Path(folder)
     return folder if (folder / "gsplat" / "package.json").is_file() else None
+
+
+def gs3d_modules() -> pathlib.Path | None:
+    """The node_modules folder holding GaussianSplats3D (its .ksplat writer), or None without
+    it or without node to run it."""
+    folder = os.environ.get(GS3D_ENV)
+    if not folder or shutil.which("node") is None:
+        return None
+    folder = pathlib.Path(folder)
+    return folder if (folder / "@mkkellogg" / "gaussian-splats-3d" / "package.json").is_file() else None
 
 
 def openjd() -> list | None:
@@ -51,5 +63,6 @@ def missing_reason(name: str) -> str:
     where = {"splat-transform": f"${SPLAT_TRANSFORM_ENV} or `splat-transform` on PATH; {TOOLS}",
              "gsplat": f"${GSPLAT_ENV} (and node on PATH); {TOOLS}",
              "openjd": f"${OPENJD_ENV} or `openjd` on PATH; {TOOLS}",
+             "gaussian-splats-3d": f"${GS3D_ENV} (and node on PATH); {TOOLS}",
              "fourdgs": "this venv; make test rebuilds it from requirements/blender-*.txt"}[name]
     return f"peer {name} {PINNED[name]} not found: looked in {where}"

@@ -104,6 +104,27 @@ def test_spz_claiming_ten_million_splats_is_refused_within_the_budget(tmp_path):
     print(f"spz of zeros, 10M splats: peak RSS {peak / 2**20:.0f} MiB")
 
 
+def test_ksplat_claiming_a_hundred_million_splats_is_refused_within_the_budget(tmp_path):
+    """A level-0 .ksplat whose one section holds 100M splats: the file is as long as they need
+    (sparse, so the test writes 5 KB), and the claim is refused before any record is read."""
+    n = 100_000_000
+    head = np.zeros(4096 + 1024, np.uint8)
+    u32 = head.view("<u4")
+    head[1] = 1  # version 0.1
+    u32[1] = u32[2] = 1  # one section
+    u32[3] = u32[4] = n
+    u32[1024] = u32[1025] = n  # the section's splats and slots; level 0, SH degree 0
+    path = tmp_path / "huge.ksplat"
+    with open(path, "wb") as f:
+        f.write(head.tobytes())
+        f.truncate(head.size + 44 * n)
+    rc, _, err, peak = cli("info", path, "--max-memory", BUDGET)
+    assert rc == 1
+    line = one_line(err, str(path), f"{n} splats", "--max-memory")
+    assert "budget" in line
+    assert peak < PEAK_LIMIT, peak
+
+
 def _reused_glb(tmp_path):
     """65,536 splats of SH degree 3, and 128 primitives reusing their one accessor set."""
     from addon.core.formats import write

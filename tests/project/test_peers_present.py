@@ -30,6 +30,9 @@ def _installed_version(name: str) -> str | None:
     if name == "gsplat":
         folder = peers.gsplat_modules()
         return folder and json.loads((folder / "gsplat" / "package.json").read_text())["version"]
+    if name == "gaussian-splats-3d":
+        folder = peers.gs3d_modules()
+        return folder and json.loads((folder / "@mkkellogg" / "gaussian-splats-3d" / "package.json").read_text())["version"]
     if name == "openjd":
         cmd = peers.openjd()
         return cmd and _run_version(cmd)

@@ -221,13 +221,23 @@ def _menu_export(self, context):
                          text=table.menu_label(table.rows(writable=True)))
 
 
+OPERATOR_NAME_MAX = 63  # Blender keeps an operator's name in 64 bytes, its NUL included
+
+
+def _operator_label(rows) -> str:
+    """The operator's name (the file browser's button, F3 search): the menu's label while it
+    fits Blender's 63 characters, else the plain name; the menus always list every suffix."""
+    label = table.menu_label(rows)
+    return label if len(label) <= OPERATOR_NAME_MAX else "Gaussian Splats"
+
+
 def _from_table() -> None:
     """Labels, file filters, export choices and drop extensions from the format table, set
     on the classes before Blender registers them (a row added later shows after the next
     register)."""
     readable, writable = table.rows(), table.rows(writable=True)
     imp, exp = IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians
-    imp.bl_label, exp.bl_label = table.menu_label(readable), table.menu_label(writable)
+    imp.bl_label, exp.bl_label = _operator_label(readable), _operator_label(writable)
     _put_first(imp, filter_glob=StringProperty(default=table.file_glob(readable), options={"HIDDEN"}))
     _put_first(exp, filter_glob=StringProperty(default=table.file_glob(writable, with_names=False), options={"HIDDEN"}),
                file_format=EnumProperty(name="Format", default=writable[0].name.upper(),

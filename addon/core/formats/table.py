@@ -113,6 +113,9 @@ ROWS: list[Format] = [
            ".sog (or a SOG meta.json)", (".sog",), "sog:read_sog", "sog_write:write_sog",
            magic=(b"PK\x03\x04",), file_names=("meta.json",), options=("iterations", "seed"),
            write_bytes=(170, 2)),
+    # GaussianSplats3D's SplatBuffer: read only, no magic (it starts with its version bytes)
+    Format("ksplat", "GaussianSplats3D KSPLAT", "mkkellogg's three.js viewer format, levels 0-2",
+           ".ksplat", (".ksplat",), "ksplat:read_ksplat", max_sh_degree=2),
     # glTF: RDF in and out; the reader and writer turn it into glTF's own frame. Never offered
     # for drops: a FileHandler cannot see the file, so it would stand in front of every glTF.
     Format("glb", "glTF binary", "KHR_gaussian_splatting glTF, one binary file", ".glb", (".glb",),

@@ -18,13 +18,16 @@ from addon.core import formats
 from addon.core.errors import SplatFormatError
 from addon.core.formats import table
 from addon.core.splats import SplatSet
+from testing.ksplat_write import write_ksplat
 from testing.webp_support import STRAIGHT_WEBP
 
 # Each row's capture in ../shared/testdata; a new row fails test_every_row_has_a_capture
 # until it names one. gltf: the test64.glb capture's own document and buffer, unpacked from
 # the binary container into a .gltf with an embedded buffer (no .gltf capture is stored).
+# ksplat: guitar.ply written at level 2 by testing/ksplat_write.py (no .ksplat is stored).
 CAPTURES = {"ply": "guitar.ply", "compressed_ply": "guitar.compressed.ply", "splat": "guitar.splat",
-            "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb"}
+            "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb",
+            "ksplat": "guitar.ply"}
 
 
 def _glb_as_gltf(glb: bytes) -> bytes:
@@ -37,6 +40,10 @@ def _glb_as_gltf(glb: bytes) -> bytes:
 
 
 def _capture(name, testdata, tmp_path):
+    if name == "ksplat":
+        out = tmp_path / "guitar.ksplat"
+        write_ksplat(out, formats.read(testdata / CAPTURES[name]), level=2)
+        return out
     if name != "gltf":
         return testdata / CAPTURES[name]
     out = tmp_path / "test64.gltf"
@@ -126,7 +133,17 @@ def test_blender_ui_offers_exactly_the_rows(bpy_empty):
     assert {formats.format_for_output("x" + _EXPORT_EXT[key]) for key in ui["export_choices"]} == {
         r.name for r in writable}
     assert ui["drop"] == set(table.suffixes(r for r in rows if r.drop))
-    assert _suffixes_named_in(ui["import_label"]) == set(table.suffixes(rows))
+    assert ui["import_label"] == _operator_label(rows) and ui["export_label"] == _operator_label(writable)
+
+
+def _operator_label(rows) -> str:
+    """Blender keeps 63 characters of an operator's name: the menu label while it fits
+    (every suffix, the closing bracket kept), else the plain name (the menus list them)."""
+    label = table.menu_label(rows)
+    if len(label) <= 63:
+        assert _suffixes_named_in(label) == set(table.suffixes(rows))
+        return label
+    return "Gaussian Splats"
 
 
 # The throwaway format: a magic, a count, then float32 positions, scales, quaternions,
@@ -208,7 +225,9 @@ def test_registered_format_in_blender_import_and_export(bpy_empty, testdata, tmp
         ui = _ui(bpy)
         assert "*.tsplat" in ui["import_glob"] and "*.tsplat" in ui["export_glob"]
         assert ui["export_choices"]["TSPLAT"] == "Test Splat (.tsplat)" and ".tsplat" in ui["drop"]
-        assert ".tsplat" in ui["import_label"] and ".tsplat" in ui["export_label"]
+        assert ui["import_label"] == _operator_label(table.rows())
+        assert ui["export_label"] == _operator_label(table.rows(writable=True))
+        assert ".tsplat" in table.menu_label(table.rows()) and ".tsplat" in table.menu_label(table.rows(writable=True))
         write_tsplat(tmp_path / "in.tsplat", formats.read(testdata / "test64.ply"))
         assert bpy.ops.import_scene.splatline_gaussians(filepath=str(tmp_path / "in.tsplat")) == {"FINISHED"}
         obj = bpy.context.view_layer.objects.active

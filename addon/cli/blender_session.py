@@ -4,8 +4,10 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import signal
 import sys
 import tempfile
+import threading
 
 
 def start(blend_path=None):
@@ -25,9 +27,6 @@ def _stops_held():
     import left a half-made Blender that crashed the process (SIGSEGV, measured on 5.0 and
     5.3 with SIGTERM 0.3-0.4 s after start). A stop asked for meanwhile is delivered to the
     command's own handler as soon as Blender is whole."""
-    import signal
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return

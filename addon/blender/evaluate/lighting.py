@@ -16,6 +16,7 @@ import numpy as np
 
 from ...core.lighting import shadows
 from ...core.lighting.lights import Light
+from ...core.lighting.normals import world_points
 from ...core.lighting.shade import Lighting, lit_splats
 from ...core.scene import RenderItem
 from ..data.world import world_background
@@ -72,11 +73,11 @@ def lit_item(item: RenderItem, lighting: Lighting, level: float, depsgraph) -> R
     if hit is not None:
         _LIT.move_to_end(signature)
         return hit
-    points = item.splats.positions.astype(np.float64) @ item.world[:3, :3].T + item.world[:3, 3]
+    points = world_points(item.splats, item.world)
     triangles = None if holdout is None else holdout.triangles
     visibility = [shadows.light_visibility(points, light, triangles, item.splats, item.world)
                   for light in lighting.lights]
-    splats = lit_splats(item.splats, item.world, lighting, level, visibility)
+    splats = lit_splats(item.splats, item.world, lighting, level, visibility, points)
     lit = replace(item, splats=splats, key=(*item.key, ("lit", signature)),
                   base_fields=item.base_fields - {"sh_dc", "sh_rest"})
     _LIT[signature] = lit

@@ -47,10 +47,17 @@ def facing(normals: np.ndarray, points: np.ndarray, eye) -> np.ndarray:
     return np.where(flip[:, None], -normals, normals)
 
 
-def splat_normals(splats, world: np.ndarray, eye) -> tuple[np.ndarray, np.ndarray]:
-    """(world-space centres, unit world normals facing eye), float64. eye None (no camera):
-    the normals as the rotations give them, and the shading takes both sides as lit."""
+def world_points(splats, world: np.ndarray) -> np.ndarray:
+    """(N, 3) float64 world-space centres."""
     world = np.asarray(world, np.float64)
-    points = splats.positions.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+    return splats.positions.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+
+
+def splat_normals(splats, world: np.ndarray, eye, points=None) -> tuple[np.ndarray, np.ndarray]:
+    """(world-space centres, unit world normals facing eye), float64; `points`, the centres
+    when the caller has them already. eye None (no camera): the normals as the rotations
+    give them, and the shading takes both sides as lit."""
+    world = np.asarray(world, np.float64)
+    points = world_points(splats, world) if points is None else points
     normals = world_normals(shortest_axes(splats.rotations, splats.scales), world)
     return points, (normals if eye is None else facing(normals, points, eye))

@@ -96,12 +96,14 @@ def radiance_factor(lighting: Lighting, points: np.ndarray, normals: np.ndarray,
     return out
 
 
-def lit_splats(splats, world: np.ndarray, lighting: Lighting, amount: float, visibility=None):
+def lit_splats(splats, world: np.ndarray, lighting: Lighting, amount: float, visibility=None,
+               points=None):
     """The splats lit by `lighting` at Look > Lighting `amount` (new sh_dc and sh_rest; the
-    rest shared). amount 0: the splats themselves, untouched."""
+    rest shared). amount 0: the splats themselves, untouched. points: their world-space
+    centres (normals.world_points), where the caller has them (for the shadows)."""
     if amount <= 0.0 or splats.count == 0:
         return splats
-    points, normals = splat_normals(splats, world, lighting.eye)
+    points, normals = splat_normals(splats, world, lighting.eye, points)
     factor = radiance_factor(lighting, points, normals, visibility)
     return with_colour_factor(splats, colour_factor(splats.sh_dc, factor, amount))
 

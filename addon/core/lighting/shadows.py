@@ -40,10 +40,11 @@ def light_visibility(points, light: Light, triangles=None, splats=None, world=No
     vis = np.ones(len(pts))
     if not light.shadow or len(pts) == 0:
         return vis.astype(np.float32)
+    views = _views(pts, light)  # the light's view of the centres, once for both casters
     if triangles is not None and len(triangles):
-        vis *= mesh_visibility(pts, light, triangles)
+        vis *= mesh_visibility(pts, light, triangles, views=views)
     if splats is not None:
-        vis *= splat_transmittance(pts, splats, world, light, cell)
+        vis *= splat_transmittance(pts, splats, world, light, cell, views=views)
     return vis.astype(np.float32)
 
 
@@ -130,11 +131,11 @@ def _segments(points, light: Light, triangles, bias):
     return pts, tris, _segments_end(pts, light, reach), 1e-6 * reach if bias is None else bias
 
 
-def mesh_visibility(points, light: Light, triangles, bias: float | None = None) -> np.ndarray:
+def mesh_visibility(points, light: Light, triangles, bias: float | None = None, views=None) -> np.ndarray:
     """(N,) 0 or 1: whether the light reaches each centre past the triangles."""
     pts, tris, ends, bias = _segments(points, light, triangles, bias)
     lit = np.ones(len(pts), bool)
-    for idx, uv, project in _views(pts, light):
+    for idx, uv, project in _views(pts, light) if views is None else views:
         grid = _Grid(uv)
         tri_uv = project(tris.reshape(-1, 3)).reshape(len(tris), 3, 2)
         for t, corners in enumerate(tri_uv):
@@ -179,13 +180,13 @@ class _Grid:
 
 
 def splat_transmittance(points, splats, world, light: Light, cell: float | None = None,
-                        depth_bias: float | None = None) -> np.ndarray:
+                        depth_bias: float | None = None, views=None) -> np.ndarray:
     """(N,) the light's share that passes the other splats to each centre (see the module)."""
     pts = np.asarray(points, np.float64)
     alpha, cell, depth_bias = _occluding(splats, world, cell, depth_bias)
     log_pass = np.log1p(-alpha)
     out = np.ones(len(pts))
-    for idx, uv, depth, size in _light_cells(pts, light, cell):
+    for idx, uv, depth, size in _light_cells(pts, light, cell, views):
         out[idx] = _passing(uv, depth, log_pass[idx], size, depth_bias)
     return out
 
@@ -203,10 +204,11 @@ def _occluding(splats, world, cell, depth_bias):
     return np.minimum(alpha, 0.999), cell, depth_bias
 
 
-def _light_cells(pts, light: Light, cell: float):
-    """Per light view: (indices, 2D coordinates, depth from the light, the cell in the view's
-    units: a sun's plane keeps world units, a cube face's are tangents)."""
-    for idx, uv, _ in _views(pts, light):
+def _light_cells(pts, light: Light, cell: float, views=None):
+    """Per light view (`_views`' own, or computed here): (indices, 2D coordinates, depth from
+    the light, the cell in the view's units: a sun's plane keeps world units, a cube face's
+    are tangents)."""
+    for idx, uv, _ in _views(pts, light) if views is None else views:
         if light.kind == "SUN":
             yield idx, uv, pts[idx] @ (light.direction_array / np.linalg.norm(light.direction_array)), cell
         else:

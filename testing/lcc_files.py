@@ -58,11 +58,18 @@ def encode_records(s, scale_b) -> np.ndarray:
     return rec
 
 
+def rest15(s) -> np.ndarray:
+    """(N, 15, 3): the degree-3 bands LCC stores, zero past the set's own."""
+    out = np.zeros((s.count, 15, 3), np.float32)
+    out[:, :s.sh_rest.shape[1]] = s.sh_rest[:, :15]
+    return out
+
+
 def encode_sh(s, sh_b) -> np.ndarray:
     enc = np.zeros((s.count, 16), "<u4")
-    rest = s.sh_rest[:, :15]
+    rest = rest15(s)
     for c, (shift, bits) in enumerate(((0, 11), (11, 10), (21, 11))):
-        enc[:, :rest.shape[1]] |= _quantise(rest[:, :, c], sh_b[:, c], bits) << shift
+        enc[:, :15] |= _quantise(rest[:, :, c], sh_b[:, c], bits) << shift
     return enc.view(np.uint8)
 
 
@@ -72,7 +79,7 @@ def write_lcc(folder, lods, sh: bool = True, units: int = 3, name: str = "meta.l
     os.makedirs(folder, exist_ok=True)
     every = np.concatenate([s.scales for s in lods])
     scale_b = bounds(every)
-    rest = np.concatenate([s.sh_rest[:, :15].reshape(-1, 3) for s in lods]) if sh else np.zeros((1, 3))
+    rest = np.concatenate([rest15(s).reshape(-1, 3) for s in lods]) if sh else np.zeros((1, 3))
     sh_b = bounds(rest)
     data, shdata, index, offset = [], [], [], 0
     for u in range(units):

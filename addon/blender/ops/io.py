@@ -227,7 +227,7 @@ def _from_table() -> None:
     register)."""
     readable, writable = table.rows(), table.rows(writable=True)
     imp, exp = IMPORT_SCENE_OT_splatline_gaussians, EXPORT_SCENE_OT_splatline_gaussians
-    imp.bl_label, exp.bl_label = table.menu_label(readable), table.menu_label(writable)
+    imp.bl_label, exp.bl_label = table.operator_label(readable), table.operator_label(writable)
     _put_first(imp, filter_glob=StringProperty(default=table.file_glob(readable), options={"HIDDEN"}))
     _put_first(exp, filter_glob=StringProperty(default=table.file_glob(writable, with_names=False), options={"HIDDEN"}),
                file_format=EnumProperty(name="Format", default=writable[0].name.upper(),

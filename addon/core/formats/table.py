@@ -132,9 +132,9 @@ ROWS: list[Format] = [
     # XGRIDS scanners' scenes: a JSON meta file beside its data files (lcc.py, lcc2.py), read
     # only, one level of detail (the finest unless `lod` says); z up as splat-transform reads them
     Format("lcc", "XGRIDS LCC", "LixelKity / Lixel CyberColor scene (meta.lcc with data.bin)",
-           ".lcc (beside its data.bin)", (".lcc",), "lcc:read_lcc", axes=AXES_RFU, lods=True),
+           ".lcc (an XGRIDS scene's meta file)", (".lcc",), "lcc:read_lcc", axes=AXES_RFU, lods=True),
     Format("lcc2", "XGRIDS LCC2", "XGRIDS octree scene of SOG or SPZ chunks",
-           ".lcc2 (beside its chunks)", (".lcc2",), "lcc2:read_lcc2", axes=AXES_RFU, lods=True),
+           ".lcc2", (".lcc2",), "lcc2:read_lcc2", axes=AXES_RFU, lods=True),
 ]
 
 
@@ -196,6 +196,13 @@ def file_glob(fmts, with_names: bool = True) -> str:
 
 def menu_label(fmts) -> str:
     return f"Gaussian Splats ({', '.join(suffixes(fmts))})"
+
+
+def operator_label(fmts) -> str:
+    """The operator's own label: Blender keeps 63 characters of it (it cut ".lcc2" off), so a
+    longer list stays in the menu entry's text (menu_label) and the label says the kind only."""
+    label = menu_label(fmts)
+    return label if len(label) <= 63 else "Gaussian Splats"
 
 
 def readable_help() -> str:

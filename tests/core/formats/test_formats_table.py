@@ -23,8 +23,11 @@ from testing.webp_support import STRAIGHT_WEBP
 # Each row's capture in ../shared/testdata; a new row fails test_every_row_has_a_capture
 # until it names one. gltf: the test64.glb capture's own document and buffer, unpacked from
 # the binary container into a .gltf with an embedded buffer (no .gltf capture is stored).
+# lcc, lcc2: no scanner's scene is stored (none is public to us); guitar.ply written as one by
+# testing/lcc_files.py, to the layout splat-transform reads (a coarser LOD beside it).
 CAPTURES = {"ply": "guitar.ply", "compressed_ply": "guitar.compressed.ply", "splat": "guitar.splat",
-            "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb"}
+            "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb",
+            "lcc": "guitar.ply", "lcc2": "guitar.ply"}
 
 
 def _glb_as_gltf(glb: bytes) -> bytes:
@@ -37,6 +40,11 @@ def _glb_as_gltf(glb: bytes) -> bytes:
 
 
 def _capture(name, testdata, tmp_path):
+    if name in ("lcc", "lcc2"):
+        from testing.lcc_files import write_lcc, write_lcc2
+        guitar = formats.read(testdata / CAPTURES[name])
+        lods = [guitar, guitar.subset(slice(None, None, 4))]
+        return write_lcc(tmp_path / "lcc", lods) if name == "lcc" else write_lcc2(tmp_path / "lcc2", lods)
     if name != "gltf":
         return testdata / CAPTURES[name]
     out = tmp_path / "test64.gltf"
@@ -80,7 +88,7 @@ def test_rows_follow_the_naming_pattern(fmt):
 
 
 def _suffixes_named_in(text: str) -> set:
-    return set(re.findall(r"(?<![\w.])(?:[\w-]*)(\.[a-z]+)\b", text))
+    return set(re.findall(r"(?<![\w.])(?:[\w-]*)(\.[a-z][a-z0-9]*)\b", text))
 
 
 def _expected_suffixes(rows) -> set:
@@ -126,7 +134,10 @@ def test_blender_ui_offers_exactly_the_rows(bpy_empty):
     assert {formats.format_for_output("x" + _EXPORT_EXT[key]) for key in ui["export_choices"]} == {
         r.name for r in writable}
     assert ui["drop"] == set(table.suffixes(r for r in rows if r.drop))
-    assert _suffixes_named_in(ui["import_label"]) == set(table.suffixes(rows))
+    # the menu entry lists every row; the operator's label too where Blender keeps it whole
+    assert _suffixes_named_in(table.menu_label(rows)) == set(table.suffixes(rows))
+    assert ui["import_label"] == table.operator_label(rows) and len(ui["import_label"]) <= 63
+    assert ui["import_label"] in (table.menu_label(rows), "Gaussian Splats")
 
 
 # The throwaway format: a magic, a count, then float32 positions, scales, quaternions,
@@ -208,7 +219,9 @@ def test_registered_format_in_blender_import_and_export(bpy_empty, testdata, tmp
         ui = _ui(bpy)
         assert "*.tsplat" in ui["import_glob"] and "*.tsplat" in ui["export_glob"]
         assert ui["export_choices"]["TSPLAT"] == "Test Splat (.tsplat)" and ".tsplat" in ui["drop"]
-        assert ".tsplat" in ui["import_label"] and ".tsplat" in ui["export_label"]
+        assert ".tsplat" in table.menu_label(table.rows()) and ".tsplat" in table.menu_label(table.rows(True))
+        assert (ui["import_label"], ui["export_label"]) == (table.operator_label(table.rows()),
+                                                            table.operator_label(table.rows(True)))
         write_tsplat(tmp_path / "in.tsplat", formats.read(testdata / "test64.ply"))
         assert bpy.ops.import_scene.splatline_gaussians(filepath=str(tmp_path / "in.tsplat")) == {"FINISHED"}
         obj = bpy.context.view_layer.objects.active

@@ -172,8 +172,9 @@ def _decode(records: np.ndarray, sh, meta: dict, degree: int, in_file: int) -> S
     s.opacities = np.ascontiguousarray(colour[:, 3])
     half = np.ascontiguousarray(records[:, 16:32]).view("<u2")
     lo, hi = meta["scale"]
-    t = half[:, 0:3] / 65535.0
-    s.scales = ((1.0 - t) * lo + t * hi).astype(np.float32)
+    s.scales = half[:, 0:3].astype(np.float32)  # float32 lerps: the peak stays in the budget
+    s.scales *= ((hi - lo) / 65535.0).astype(np.float32)
+    s.scales += lo.astype(np.float32)
     s.rotations = _rotations(half[:, 3].astype(np.uint32) | (half[:, 4].astype(np.uint32) << 16))
     if sh is not None:
         s.sh_rest = _sh(sh, meta["shcoef"], degree)
@@ -185,26 +186,35 @@ def _decode(records: np.ndarray, sh, meta: dict, degree: int, in_file: int) -> S
 
 def _rotations(v: np.ndarray) -> np.ndarray:
     """wxyz quaternions from the packed u32 (module docstring)."""
-    three = np.stack([(v >> k) & 1023 for k in (0, 10, 20)], 1) / 1023.0 * SQRT2 - 1.0 / SQRT2
-    largest = np.sqrt(1.0 - np.minimum(1.0, (three ** 2).sum(1)))
-    dropped = (v >> 30).astype(np.int64)
-    xyzw = np.empty((len(v), 4))
-    slot = np.arange(4)
+    three = np.empty((len(v), 3), np.float32)
+    for i in range(3):
+        three[:, i] = (v >> (10 * i)) & 1023
+    three *= np.float32(SQRT2 / 1023.0)
+    three -= np.float32(1.0 / SQRT2)
+    largest = np.sqrt(1.0 - np.minimum(1.0, np.einsum("ij,ij->i", three, three)))
+    dropped = v >> 30
+    xyzw = np.empty((len(v), 4), np.float32)
     for k in range(4):
         rows = dropped == k
-        others = slot[slot != k]
+        others = [c for c in range(4) if c != k]
         xyzw[np.ix_(rows, others)] = three[rows]
         xyzw[rows, k] = largest[rows]
-    q = xyzw[:, [3, 0, 1, 2]].astype(np.float32)
-    return normalize_quats_(q)
+    return normalize_quats_(np.ascontiguousarray(xyzw[:, [3, 0, 1, 2]]))
 
 
 def _sh(raw: np.ndarray, bounds: np.ndarray, degree: int) -> np.ndarray:
+    """lo + v / top * (hi - lo) in float32, one channel at a time: the float64 lerp of all
+    45 coefficients at once made the read's peak twice the memory budget's estimate."""
     k = sh_coeff_count(degree)
     enc = np.ascontiguousarray(raw).view("<u4")[:, :k]
     lo, hi = bounds
     out = np.empty((len(raw), k, 3), np.float32)
+    t = np.empty((len(raw), k), np.uint32)
     for c, (shift, bits) in enumerate(((0, 11), (11, 10), (21, 11))):
-        t = ((enc >> shift) & ((1 << bits) - 1)) / float((1 << bits) - 1)
-        out[:, :, c] = (1.0 - t) * lo[c] + t * hi[c]
+        np.right_shift(enc, shift, out=t)
+        t &= (1 << bits) - 1
+        channel = out[:, :, c]
+        channel[...] = t
+        channel *= np.float32((hi[c] - lo[c]) / ((1 << bits) - 1))
+        channel += np.float32(lo[c])
     return out

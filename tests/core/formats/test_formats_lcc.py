@@ -273,3 +273,16 @@ def test_lcc2_bad_scenes(lcc2):
     _fails(lcc2, lcc2, f"chunk file {chunk!r} is missing")
     shutil.copy(os.path.join(folder, json.loads(good)["root"]["splatFiles"][0]), os.path.join(folder, chunk))
     _fails(lcc2, os.path.join(folder, chunk), "meta.lcc2 says")  # another chunk's count
+
+
+@pytest.mark.parametrize("degree", [0, 3])
+def test_read_peak_stays_within_the_budgets_estimate(tmp_path, degree):
+    """check_budget admits a scene by _common.splat_bytes (256 bytes a splat + 8 a higher-SH
+    float): the read's Python peak (numpy's arrays included) must not exceed it."""
+    from addon.core.formats._common import splat_bytes
+    from bench.formats_bench import peak_bytes
+
+    n = 60_000
+    path = write_lcc(tmp_path / "s", [random_splats(n, degree, seed=1, dc=0.5)], sh=degree > 0, units=8)
+    peak = peak_bytes(lambda: read(path))
+    assert peak <= splat_bytes(n, 45 if degree else 0), peak / n

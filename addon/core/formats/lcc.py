@@ -40,6 +40,8 @@ from .readfile import OpenedFile, read_whole
 MAX_META = 16 << 20       # a meta.lcc is a few KB; more is not one
 MAX_INDEX = 1 << 30       # 16 bytes per unit and LOD: millions of units
 RECORD, SH_RECORD = 32, 64
+MAX_LEVELS = 64           # the white paper's example has 9; each is a halving
+MAX_OFFSET = 1 << 56      # past any file: bounds the arithmetic on offsets
 KNOWN_MAJOR = 5           # the white paper's "5.0"; splat-transform mentions earlier ones
 SQRT2 = np.sqrt(2.0)
 
@@ -77,13 +79,13 @@ def _meta(path) -> dict:
     splats, levels = doc.get("splats"), doc.get("totalLevel")
     if not (isinstance(splats, list) and splats and all(_count(s) for s in splats)):
         raise SplatFormatError(path, "meta.lcc `splats` must list each LOD's splat count")
-    if not _count(levels) or levels != len(splats):
+    if not _count(levels) or levels != len(splats) or levels > MAX_LEVELS:
         raise SplatFormatError(path, f"meta.lcc `totalLevel` ({levels!r}) must be the number of LODs "
-                                     f"`splats` lists ({len(splats)})")
+                                     f"`splats` lists ({len(splats)}), at most {MAX_LEVELS}")
     attributes = doc.get("attributes")
     if not isinstance(attributes, list) or not all(isinstance(a, dict) for a in attributes):
         raise SplatFormatError(path, "meta.lcc `attributes` must be a list of objects")
-    named = {a.get("name"): a for a in attributes}
+    named = {a.get("name"): a for a in attributes if isinstance(a.get("name"), str)}
     kind = doc.get("fileType")
     sh = kind == "Quality" or (kind != "Portable" and "shcoef" in named)
     out = {"levels": levels, "splats": splats, "sh": sh, "scale": _bounds(path, named, "scale")}
@@ -138,6 +140,8 @@ def _index(path, levels: int) -> np.ndarray:
     lods = np.frombuffer(raw, unit)["lods"]
     if (lods["points"] < 0).any() or (lods["offset"] < 0).any() or (lods["size"] < 0).any():
         raise SplatFormatError(name, "holds a negative splat count, offset or size")
+    if (lods["offset"] >= MAX_OFFSET).any():
+        raise SplatFormatError(name, f"holds an offset of {int(lods['offset'].max())}, past any data file")
     if (lods["size"].astype(np.int64) < lods["points"].astype(np.int64) * RECORD).any():
         raise SplatFormatError(name, f"a block is smaller than {RECORD} bytes a splat")
     return lods

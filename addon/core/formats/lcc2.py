@@ -119,7 +119,7 @@ def _chunks(path, meta, lod: int) -> dict:
 def _chunk_path(path, meta, index: int) -> str:
     name = meta["files"][index]
     parts = name.replace("\\", "/").split("/")
-    if os.path.isabs(name) or ".." in parts:
+    if os.path.isabs(name) or ".." in parts or "\0" in name:
         raise SplatFormatError(path, f"meta.lcc2 chunk {name!r} is not a path inside its folder")
     full = os.path.join(os.path.dirname(os.fspath(path)), *parts)
     if not os.path.exists(full):  # as splat-transform: a path that is missing, then its bare name

@@ -18,7 +18,7 @@ from ..core.validate import check_values
 from ..core.edit import merge
 from . import UsageError, dynamic_capture, edits
 from .capture_scene import is_blend
-from .options import add_axes, add_bad_values, add_selection, axes_or_none, check_selection
+from .options import add_axes, add_bad_values, add_lod, add_selection, axes_or_none, check_selection
 from .writable import check_output_file
 
 
@@ -31,6 +31,7 @@ def configure(parser):
     parser.add_argument("--spz-version", type=int, choices=(3, 4), default=4,
                         help="SPZ version to write: 4 (zstd streams, default) or 3 (gzip)")
     add_axes(parser, blend_input=True)
+    add_lod(parser)
     parser.add_argument("--object", action="append", default=[], metavar="NAME",
                         help="a splat object of the .blend input to write, its stored data "
                              "object-local as File > Export writes it (repeatable: several merge; "
@@ -68,7 +69,8 @@ def _read(args, path):
     splats, report = read_with_report(path, sh_degree=args.max_sh_degree,
                                       min_opacity=args.min_opacity or None,
                                       max_count=args.max_count or None, bad=args.bad_values,
-                                      axes=axes_or_none(args.axes), max_splats=args.max_splats)
+                                      axes=axes_or_none(args.axes), max_splats=args.max_splats,
+                                      lod=args.lod)
     return [_checked(splats, report)]
 
 

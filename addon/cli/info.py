@@ -11,7 +11,7 @@ from ..core.dynamic import is_dynamic_file
 from ..core.edit import statistics
 from ..core.formats import read_with_report, table
 from . import dynamic_capture
-from .options import add_axes, add_max_splats, axes_or_none
+from .options import add_axes, add_lod, add_max_splats, axes_or_none
 
 
 def configure(parser):
@@ -19,16 +19,17 @@ def configure(parser):
     parser.add_argument("--json", action="store_true", help="print one JSON object (default: a table)")
     add_max_splats(parser)
     add_axes(parser)
+    add_lod(parser)
     parser.add_argument("--stats", action="store_true",
                         help="also min, max, mean, std and NaN/Inf count of each activated quantity "
                              "(x y z, opacity 0..1, linear scales, volume, DC colour r g b; default: off)")
 
 
-def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
+def summarize(path, stats=False, max_splats=None, axes=None, lod=None) -> dict:
     """What `info` prints, as a dict (bad values are counted, not dropped); `axes` overrides
     the file's convention (the bounds are the file's values either way)."""
     splats, report = read_with_report(path, bad="fix", max_splats=max_splats, axes=axes,
-                                      keep_replaced=True)
+                                      keep_replaced=True, lod=lod)
     pos = splats.positions
     if report.bad.replaced is not None:  # the box of the positions the file holds, not of fixes
         rows, originals = report.bad.replaced
@@ -56,7 +57,7 @@ def run(args) -> int:
         info = dynamic_capture.summary(args.file, stats, args.max_splats)
         print(json.dumps(info)) if args.json else dynamic_capture.print_summary(info)
         return 0
-    info = summarize(args.file, stats, args.max_splats, axes_or_none(args.axes))
+    info = summarize(args.file, stats, args.max_splats, axes_or_none(args.axes), args.lod)
     if args.json:
         print(json.dumps(info))
         return 0

@@ -23,8 +23,8 @@ def add_axes(parser, blend_input: bool = False) -> None:
     parser.add_argument("--axes", type=str.upper, default="AUTO", choices=AXES_CHOICES,
                         help="the input's axis convention: AUTO (default) takes the format's own "
                              "(RDF for .ply, .splat, .sog and glTF; RUB for .spz, or what its "
-                             "coordinate-system extension names); RDF for an .spz that holds the "
-                             "PLY's values (splat-transform 3.7 writes them so)"
+                             "coordinate-system extension names; RFU for .lcc and .lcc2); RDF for "
+                             "an .spz that holds the PLY's values (splat-transform 3.7 writes them so)"
                              + ("; for a .blend object, the frame its data is in (RFU for one "
                                 "Blender's own SPZ importer made)" if blend_input else ""))
 
@@ -56,6 +56,12 @@ def add_selection(parser, sh_alias: str | None = None) -> None:
                         help="keep the N most important splats (opacity x volume) of each input "
                              "(default 0: all)")
     add_max_splats(parser)
+
+
+def add_lod(parser) -> None:
+    parser.add_argument("--lod", type=int, default=None, metavar="N",
+                        help="the level of detail to read from a scene that holds several (.lcc, "
+                             ".lcc2): 0, the finest, by default; other formats refuse it")
 
 
 def add_max_splats(parser) -> None:

@@ -194,6 +194,27 @@ def test_sog_image_of_huge_dimensions_is_refused_before_decoding(testdata, tmp_p
     print(f"SOG image claiming 8192x8192: peak RSS {peak / 2**20:.0f} MiB")
 
 
+def test_lcc_claiming_billions_of_splats_is_refused_within_the_budget(tmp_path):
+    """An LCC scene whose index.bin claims 100 units of 67M splats (the most a block's i32
+    size allows), its data.bin 32 bytes: refused from meta.lcc and index.bin before data.bin
+    is opened, in one line naming the meta file."""
+    from testing.lcc_files import write_lcc
+    from testing.synth import random_splats
+
+    meta = write_lcc(tmp_path / "lcc", [random_splats(1, 0)], sh=False, units=1)
+    per_unit = (2**31 - 1) // 32
+    unit = struct.pack("<hhiqi", 0, 0, per_unit, 0, per_unit * 32)
+    (tmp_path / "lcc" / "index.bin").write_bytes(unit * 100)
+    doc = json.loads(Path(meta).read_text())
+    doc["splats"] = [per_unit * 100]
+    Path(meta).write_text(json.dumps(doc))
+    rc, _, err, peak = cli("info", meta, "--max-memory", BUDGET)
+    assert rc == 1
+    one_line(err, meta, f"{per_unit * 100} splats", "--max-memory")
+    assert peak < PEAK_LIMIT, peak
+    print(f"LCC claiming {per_unit * 100} splats: peak RSS {peak / 2**20:.0f} MiB")
+
+
 def _webp_ok():
     try:
         from addon.core.formats.webp import keeps_straight_alpha

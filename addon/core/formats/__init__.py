@@ -82,7 +82,7 @@ def _reader(fmt: str):
 
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
                      format=None, axes=None, max_splats=None,
-                     keep_replaced=False) -> tuple[SplatSet, ReadReport]:
+                     keep_replaced=False, lod=None) -> tuple[SplatSet, ReadReport]:
     """Decode a file, handle bad values by policy `bad` ("fix", "drop", "error"), then apply
     the import options. `axes` overrides the file's axis convention (e.g. "RDF" for an spz
     holding the PLY's values, as splat-transform 3.7 writes them); `format` skips detection.
@@ -90,14 +90,15 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
     decompressed or allocated (None: what fits in available memory; unlike max_count, it
     never subsamples). keep_replaced: with bad="fix", report.bad.replaced keeps the fixed
     splats' original values (core/validate.py), for statistics that leave the replaced
-    values out."""
+    values out. `lod`: the level of detail to read from a format that holds several (LCC,
+    LCC2; 0 the finest, the default); a format without levels refuses it."""
     if axes is not None and axes not in AXES:
         raise ValueError(f"axes {axes!r} is not one of {AXES}")
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
     try:  # open/read can still fail after the stat checks (permission denied, I/O error)
         fmt = format or detect_format(path)
         with readfile.recording() as opened:
-            splats = _reader(fmt)(path, max_degree, max_splats)
+            splats = _reader(fmt)(path, max_degree, max_splats, lod=lod)
     except OSError as exc:
         raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
@@ -111,8 +112,8 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
 
 
 def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", format=None,
-         axes=None, max_splats=None) -> SplatSet:
-    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format, axes, max_splats)[0]
+         axes=None, max_splats=None, lod=None) -> SplatSet:
+    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format, axes, max_splats, lod=lod)[0]
 
 
 def format_for_output(path) -> str:

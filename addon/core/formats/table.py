@@ -14,7 +14,7 @@ import os
 from dataclasses import dataclass
 from typing import Callable
 
-from ..splats import AXES_RDF, AXES_RUB
+from ..splats import AXES_RDF, AXES_RFU, AXES_RUB
 
 
 def _ply_chunked(head: bytes) -> bool:
@@ -49,6 +49,8 @@ class Format:
     write_bytes what the writer allocates at its peak beyond the splats it is given: bytes per
                 splat and per higher-SH float (core/budget.after_read; measured at 1M splats,
                 degrees 0 and 3, with a sixth to spare: bench/memory_budget_bench.py)
+    lods        its files hold levels of detail: the reader takes `lod` (0, the finest, when
+                None); formats.read refuses `lod` for the other rows
     """
     name: str
     label: str
@@ -67,6 +69,7 @@ class Format:
     max_sh_degree: int = 3
     drop: bool = True
     write_bytes: tuple[int, int] = (0, 0)
+    lods: bool = False
 
     def write_cost(self, count: int, rest_floats: int) -> int:
         per_splat, per_float = self.write_bytes
@@ -76,8 +79,13 @@ class Format:
         """Whether a file starting with `head` (its first 4 KiB) is this format by its bytes."""
         return any(head.startswith(m) for m in self.magic) and (self.sniff is None or self.sniff(head))
 
-    def read(self, path, max_degree: int, max_splats):
-        return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats)
+    def read(self, path, max_degree: int, max_splats, lod=None):
+        if lod is None:
+            return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats)
+        if not self.lods:
+            from ..errors import SplatFormatError
+            raise SplatFormatError(path, f"{self.label} files have no levels of detail to pick (lod {lod})")
+        return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats, lod=lod)
 
     def write(self, path, splats, options: dict) -> list:
         """The writer's notes: one line each for what the format could not keep as it was
@@ -124,6 +132,12 @@ ROWS: list[Format] = [
     Format("gltf", "glTF", "KHR_gaussian_splatting glTF with embedded buffers", ".gltf", (".gltf",),
            "gltf:read_gltf", "gltf_write:write_gltf", writer_args=(("binary_container", False),),
            drop=False, write_bytes=(300, 24)),
+    # XGRIDS scanners' scenes: a JSON meta file beside its data files (lcc.py, lcc2.py), read
+    # only, one level of detail (the finest unless `lod` says); z up as splat-transform reads them
+    Format("lcc", "XGRIDS LCC", "LixelKity / Lixel CyberColor scene (meta.lcc with data.bin)",
+           ".lcc (an XGRIDS scene's meta file)", (".lcc",), "lcc:read_lcc", axes=AXES_RFU, lods=True),
+    Format("lcc2", "XGRIDS LCC2", "XGRIDS octree scene of SOG or SPZ chunks",
+           ".lcc2", (".lcc2",), "lcc2:read_lcc2", axes=AXES_RFU, lods=True),
 ]
 
 

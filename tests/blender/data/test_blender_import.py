@@ -150,7 +150,7 @@ def test_operator_filepath_and_menus(bpy_empty, testdata):
     assert len(bpy.data.objects["test64"].data.points) == 10
     handler = bpy.types.FileHandler.bl_rna_get_subclass_py("IO_FH_splatline_gaussians")
     assert handler.bl_import_operator == "import_scene.splatline_gaussians"
-    assert set(handler.bl_file_extensions.split(";")) == {".ply", ".splat", ".spz", ".sog", ".ksplat"}
+    assert set(handler.bl_file_extensions.split(";")) == {".ply", ".splat", ".spz", ".sog", ".ksplat", ".lcc", ".lcc2"}
     draw_funcs = [f.__name__ for f in bpy.types.TOPBAR_MT_file_import._dyn_ui_initialize()]
     assert "_menu_import" in draw_funcs
     assert "_menu_export" in [f.__name__ for f in bpy.types.TOPBAR_MT_file_export._dyn_ui_initialize()]

@@ -163,7 +163,7 @@ def test_file_handler_is_one_named_choice_beside_blenders_own(bpy_empty):
     from addon.blender.ops.io import IO_FH_splatline_gaussians as handler
 
     bpy = bpy_empty
-    assert set(handler.bl_file_extensions.split(";")) == {".ply", ".splat", ".spz", ".sog", ".ksplat"}
+    assert set(handler.bl_file_extensions.split(";")) == {".ply", ".splat", ".spz", ".sog", ".ksplat", ".lcc", ".lcc2"}
     assert "Splatline" in handler.bl_label  # Blender's drop menu tells the handlers apart
     assert native.native_importer(".ply") == "ply_import"  # Blender's own, every version
     assert native.native_importer(".splat") is None

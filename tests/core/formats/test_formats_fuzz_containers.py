@@ -25,6 +25,7 @@ import contextlib
 import io
 import json
 import math
+import pathlib
 import resource
 import shutil
 import signal
@@ -44,7 +45,8 @@ from testing.reader_checks import FUZZ_BUDGET as BUDGET, check_promises
 from testing.webp_support import needs_straight_webp
 
 CASES = {"sog_zip": 900, "sog_unbundled": 400, "glb": 1200, "gltf": 400,
-         "sog_encrypted": 150, "sog_nul_name": 60}  # the last two: zipfile errors found later
+         "sog_encrypted": 150, "sog_nul_name": 60,  # the last two: zipfile errors found later
+         "lcc": 600, "lcc2": 300}
 MAX_PEAK = 64 << 20
 HANG_S = 30
 HOSTILE = [-1, 0, 1, 2, 3, 4, 63, 65, 255, 256, 257, 4096, 65535, 65536, 1 << 28, 1 << 31, 1 << 32,
@@ -342,7 +344,8 @@ FIGURES = {"max_case_s": 0.0, "max_traced": 0}
 def outcome(path, bad: str) -> str:
     """'read' or 'refused' when the reader kept its promises, else what went wrong. An
     unbundled SOG's errors name its folder and the image at fault (test_formats_sog.py)."""
-    named = str(path.parent if path.name == "meta.json" else path)
+    # an XGRIDS scene's errors name its meta file or the sibling at fault: its folder either way
+    named = str(path.parent if path.name == "meta.json" or path.suffix in (".lcc", ".lcc2") else path)
     tracemalloc.reset_peak()
     try:
         with _hang_guard():
@@ -460,3 +463,52 @@ def test_fuzz_gltf(testdata, tmp_path, traced):
         _run("glb", CASES["glb"], glb, problems, outcomes)
         _run("gltf", CASES["gltf"], gltf, problems, outcomes)
     _report(start, problems, outcomes, "glTF")
+
+
+# ---------------------------------------------------------------- XGRIDS LCC / LCC2
+
+def _lcc_case(rng, folder, seed: dict, meta_name: str, focus) -> pathlib.Path:
+    """The seed scene's files with one of them mutated (its JSON meta structurally, a binary
+    by _raw) or deleted, written into an emptied folder."""
+    shutil.rmtree(folder, ignore_errors=True)
+    files = dict(seed)
+    victim = sorted(files)[int(rng.integers(len(files)))]
+    kind = int(rng.integers(5))
+    if victim == meta_name and kind < 3:
+        files[victim] = _dump(_mutate_json(rng, json.loads(files[victim]), focus))
+    elif kind == 4:
+        del files[victim]
+    else:
+        files[victim] = _raw(rng, files[victim])
+    for name, data in files.items():
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
+        (folder / name).write_bytes(data)
+    return folder / meta_name
+
+
+def _seed_files(folder) -> dict:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_fuzz_lcc(tmp_path, traced):
+    """LCC (meta.lcc, index.bin, data.bin, shcoef.bin) and LCC2 (meta.lcc2 over .spz chunks),
+    written by testing/lcc_files.py from 64-splat LODs."""
+    from testing.lcc_files import write_lcc, write_lcc2
+    from testing.synth import random_splats
+
+    lods = [random_splats(64, 3, seed=1), random_splats(16, 3, seed=2)]
+    write_lcc(tmp_path / "lcc_seed", lods, units=3)
+    write_lcc2(tmp_path / "lcc2_seed", lods, splat_type=".spz")
+    lcc_seed, lcc2_seed = _seed_files(tmp_path / "lcc_seed"), _seed_files(tmp_path / "lcc2_seed")
+    start, problems, outcomes = time.perf_counter(), [], {"read": 0, "refused": 0}
+
+    def lcc(rng, i):
+        return _lcc_case(rng, tmp_path / "lcc", lcc_seed, "meta.lcc", ("splats", "totalLevel", "attributes"))
+
+    def lcc2(rng, i):
+        return _lcc_case(rng, tmp_path / "lcc2", lcc2_seed, "meta.lcc2", ("root", "totalLevels"))
+
+    with np.errstate(all="ignore"):
+        _run("lcc", CASES["lcc"], lcc, problems, outcomes)
+        _run("lcc2", CASES["lcc2"], lcc2, problems, outcomes)
+    _report(start, problems, outcomes, "LCC")

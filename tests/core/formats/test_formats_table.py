@@ -25,9 +25,11 @@ from testing.webp_support import STRAIGHT_WEBP
 # until it names one. gltf: the test64.glb capture's own document and buffer, unpacked from
 # the binary container into a .gltf with an embedded buffer (no .gltf capture is stored).
 # ksplat: guitar.ply written at level 2 by testing/ksplat_write.py (no .ksplat is stored).
+# lcc, lcc2: no scanner's scene is stored (none is public to us); guitar.ply written as one by
+# testing/lcc_files.py, to the layout splat-transform reads (a coarser LOD beside it).
 CAPTURES = {"ply": "guitar.ply", "compressed_ply": "guitar.compressed.ply", "splat": "guitar.splat",
             "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb",
-            "ksplat": "guitar.ply"}
+            "ksplat": "guitar.ply", "lcc": "guitar.ply", "lcc2": "guitar.ply"}
 
 
 def _glb_as_gltf(glb: bytes) -> bytes:
@@ -44,6 +46,11 @@ def _capture(name, testdata, tmp_path):
         out = tmp_path / "guitar.ksplat"
         write_ksplat(out, formats.read(testdata / CAPTURES[name]), level=2)
         return out
+    if name in ("lcc", "lcc2"):
+        from testing.lcc_files import write_lcc, write_lcc2
+        guitar = formats.read(testdata / CAPTURES[name])
+        lods = [guitar, guitar.subset(slice(None, None, 4))]
+        return write_lcc(tmp_path / "lcc", lods) if name == "lcc" else write_lcc2(tmp_path / "lcc2", lods)
     if name != "gltf":
         return testdata / CAPTURES[name]
     out = tmp_path / "test64.gltf"
@@ -87,7 +94,7 @@ def test_rows_follow_the_naming_pattern(fmt):
 
 
 def _suffixes_named_in(text: str) -> set:
-    return set(re.findall(r"(?<![\w.])(?:[\w-]*)(\.[a-z]+)\b", text))
+    return set(re.findall(r"(?<![\w.])(?:[\w-]*)(\.[a-z][a-z0-9]*)\b", text))
 
 
 def _expected_suffixes(rows) -> set:

@@ -43,6 +43,10 @@ class Format:
     writer_args fixed keywords for the writer ((("binary_container", False),))
     options     the write options formats.write passes on (spz "version"); a writer without
                 any is called without the caller's options
+    read_options    the read options formats.read passes on (streamed SOG "lod"); a reader
+                without any is called without them
+    levels      for a format with levels of detail, "module:function" (or a callable): path ->
+                splats per level, finest first, without decoding (info lists them)
     axes        the convention its files hold; a set in another is re-expressed before writing
     max_sh_degree   the highest SH degree the writer stores
     drop        offered for drag-and-drop (FileHandler): not for extensions other importers own
@@ -63,6 +67,8 @@ class Format:
     file_names: tuple[str, ...] = ()
     writer_args: tuple[tuple[str, object], ...] = ()
     options: tuple[str, ...] = ()
+    read_options: tuple[str, ...] = ()
+    levels: str | Callable | None = None
     axes: str = AXES_RDF
     max_sh_degree: int = 3
     drop: bool = True
@@ -76,8 +82,13 @@ class Format:
         """Whether a file starting with `head` (its first 4 KiB) is this format by its bytes."""
         return any(head.startswith(m) for m in self.magic) and (self.sniff is None or self.sniff(head))
 
-    def read(self, path, max_degree: int, max_splats):
-        return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats)
+    def read(self, path, max_degree: int, max_splats, options: dict | None = None):
+        given = {k: v for k, v in (options or {}).items() if k in self.read_options}
+        return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats, **given)
+
+    def level_counts(self, path) -> list[int] | None:
+        """Splats per level of detail, finest first; None for a format without levels."""
+        return None if self.levels is None else list(_resolve(self.levels)(path))
 
     def write(self, path, splats, options: dict) -> list:
         """The writer's notes: one line each for what the format could not keep as it was
@@ -113,6 +124,11 @@ ROWS: list[Format] = [
            ".sog (or a SOG meta.json)", (".sog",), "sog:read_sog", "sog_write:write_sog",
            magic=(b"PK\x03\x04",), file_names=("meta.json",), options=("iterations", "seed"),
            write_bytes=(170, 2)),
+    # streamed SOG: a folder of SOG chunks at several levels of detail, read one level at a time
+    Format("streamed_sog", "PlayCanvas streamed SOG", "lod-meta.json and its SOG chunks, levels of detail",
+           "a streamed SOG lod-meta.json", (), "streamed_sog:read_streamed_sog",
+           file_names=("lod-meta.json",), read_options=("lod",), levels="streamed_sog:level_counts",
+           drop=False),
     # glTF: RDF in and out; the reader and writer turn it into glTF's own frame. Never offered
     # for drops: a FileHandler cannot see the file, so it would stand in front of every glTF.
     Format("glb", "glTF binary", "KHR_gaussian_splatting glTF, one binary file", ".glb", (".glb",),

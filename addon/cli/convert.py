@@ -18,7 +18,7 @@ from ..core.validate import check_values
 from ..core.edit import merge
 from . import UsageError, dynamic_capture, edits
 from .capture_scene import is_blend
-from .options import add_axes, add_bad_values, add_selection, axes_or_none, check_selection
+from .options import add_axes, add_bad_values, add_lod, add_selection, axes_or_none, check_selection
 from .writable import check_output_file
 
 
@@ -36,6 +36,7 @@ def configure(parser):
                              "object-local as File > Export writes it (repeatable: several merge; "
                              "default: the .blend's one splat object)")
     add_selection(parser, sh_alias="--sh-degree")
+    add_lod(parser)
     add_bad_values(parser, alias="--bad")
     dynamic = parser.add_argument_group("dynamic (4D) captures")
     dynamic.add_argument("--time", type=float, default=None, metavar="T",
@@ -68,7 +69,8 @@ def _read(args, path):
     splats, report = read_with_report(path, sh_degree=args.max_sh_degree,
                                       min_opacity=args.min_opacity or None,
                                       max_count=args.max_count or None, bad=args.bad_values,
-                                      axes=axes_or_none(args.axes), max_splats=args.max_splats)
+                                      axes=axes_or_none(args.axes), max_splats=args.max_splats,
+                                      lod=args.lod)
     return [_checked(splats, report)]
 
 
@@ -90,6 +92,11 @@ def _options(args, splats, report):
     splats, report.bad = check_values(splats, args.bad_values, report.path)
     kept = select(splats, args.max_sh_degree, args.min_opacity or None, args.max_count or None)
     return kept.check(), report
+
+
+def _level(report) -> str:
+    """'level 1 of 3, ' for a file with levels of detail, else ''."""
+    return f"level {report.level} of {len(report.levels)}, " if report.levels else ""
 
 
 def _check_inputs(args) -> None:
@@ -123,7 +130,7 @@ def run(args) -> int:
     notes = write(args.output, splats, fmt, **({"version": args.spz_version} if fmt == "spz" else {}))
     for note in notes:
         print(f"warning: {args.output}: {note}", file=sys.stderr)
-    source = ", ".join(f"{r.path} ({r.format}, {r.count_in_file} splats)" for _, r in loaded)
+    source = ", ".join(f"{r.path} ({r.format}, {_level(r)}{r.count_in_file} splats)" for _, r in loaded)
     print(f"{source} -> {args.output} "
           f"({fmt}, {splats.count} splats, SH degree {min(splats.sh_degree, table.row(fmt).max_sh_degree)})")
     return 0

@@ -16,13 +16,14 @@ from ..core.formats import table
 from . import UsageError, UserError
 from . import framing_options
 from .writable import check_output_file
-from .options import add_axes, add_bad_values, add_selection, check_selection, preset_names
+from .options import add_axes, add_bad_values, add_lod, add_selection, check_selection, preset_names
 
 
 def configure(parser):
     parser.add_argument("files", nargs="+", metavar="FILE", help=f"{table.readable_help()} files")
     parser.add_argument("--blend", required=True, metavar="OUT.blend", help="the .blend file to write")
     add_selection(parser)
+    add_lod(parser)
     add_axes(parser)
     add_bad_values(parser)
     parser.add_argument("--effect-preset", action="append", default=[], metavar="NAME",
@@ -81,7 +82,8 @@ def run(args) -> int:
         try:
             obj, report = import_file_with_report(
                 bpy.context, path, max_sh_degree=args.max_sh_degree, min_opacity=args.min_opacity,
-                max_count=args.max_count, axes=args.axes, bad=args.bad_values, max_splats=args.max_splats)
+                max_count=args.max_count, axes=args.axes, bad=args.bad_values, max_splats=args.max_splats,
+                lod=args.lod)
         except OSError as exc:  # e.g. permission denied: still one line naming the file
             raise SplatFormatError(path, exc.strerror or str(exc)) from None
         imported.append(obj)

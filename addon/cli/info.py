@@ -11,24 +11,26 @@ from ..core.dynamic import is_dynamic_file
 from ..core.edit import statistics
 from ..core.formats import read_with_report, table
 from . import dynamic_capture
-from .options import add_axes, add_max_splats, axes_or_none
+from .options import add_axes, add_lod, add_max_splats, axes_or_none
 
 
 def configure(parser):
     parser.add_argument("file", help=f"a {table.readable_help()} file")
     parser.add_argument("--json", action="store_true", help="print one JSON object (default: a table)")
     add_max_splats(parser)
+    add_lod(parser)
     add_axes(parser)
     parser.add_argument("--stats", action="store_true",
                         help="also min, max, mean, std and NaN/Inf count of each activated quantity "
                              "(x y z, opacity 0..1, linear scales, volume, DC colour r g b; default: off)")
 
 
-def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
+def summarize(path, stats=False, max_splats=None, axes=None, lod=None) -> dict:
     """What `info` prints, as a dict (bad values are counted, not dropped); `axes` overrides
-    the file's convention (the bounds are the file's values either way)."""
+    the file's convention (the bounds are the file's values either way). A file with levels
+    of detail lists them; the rest describes the level read (`lod`, default the finest)."""
     splats, report = read_with_report(path, bad="fix", max_splats=max_splats, axes=axes,
-                                      keep_replaced=True)
+                                      keep_replaced=True, lod=lod)
     pos = splats.positions
     if report.bad.replaced is not None:  # the box of the positions the file holds, not of fixes
         rows, originals = report.bad.replaced
@@ -43,7 +45,16 @@ def summarize(path, stats=False, max_splats=None, axes=None) -> dict:
         "bbox_min": bbox_min, "bbox_max": bbox_max,
         "bad_values": report.bad.as_dict(),
         "file_bytes": report.file_bytes,
-    } | ({"stats": statistics(splats, report.bad.replaced)} if stats else {})
+    } | ({"levels": report.levels, "level": report.level} if report.levels is not None else {}) | ({"stats": statistics(splats, report.bad.replaced)} if stats else {})
+
+
+def _levels(info) -> list:
+    """The levels of detail rows: every level's count, and which one the rest describes."""
+    if "levels" not in info:
+        return []
+    listed = ", ".join(f"{lod}: {n:,}" for lod, n in enumerate(info["levels"]))
+    return [("levels", f"{len(info['levels'])} ({listed} splats; 0 is the finest)"),
+            ("level read", f"{info['level']} (--lod N reads another)")]
 
 
 def _fmt_vec(v) -> str:
@@ -56,13 +67,13 @@ def run(args) -> int:
         info = dynamic_capture.summary(args.file, stats, args.max_splats)
         print(json.dumps(info)) if args.json else dynamic_capture.print_summary(info)
         return 0
-    info = summarize(args.file, stats, args.max_splats, axes_or_none(args.axes))
+    info = summarize(args.file, stats, args.max_splats, axes_or_none(args.axes), args.lod)
     if args.json:
         print(json.dumps(info))
         return 0
     bad = info["bad_values"]
     rows = [
-        ("file", info["file"]), ("format", info["format"]), ("splats", f"{info['count']:,}"),
+        ("file", info["file"]), ("format", info["format"]), *_levels(info), ("splats", f"{info['count']:,}"),
         ("SH degree", info["sh_degree"]), ("axes", info["axes"]),
         ("anti-aliased", "yes (trained so: rendered with the compensation)" if info["antialiased"] else "no"),
         ("bbox min", _fmt_vec(info["bbox_min"])), ("bbox max", _fmt_vec(info["bbox_max"])),

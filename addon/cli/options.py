@@ -64,6 +64,14 @@ def add_max_splats(parser) -> None:
                              "decompressing it (default: what fits in available memory)")
 
 
+def add_lod(parser) -> None:
+    """--lod: which level of detail of a file that holds several (a streamed SOG)."""
+    parser.add_argument("--lod", type=int, default=None, metavar="N",
+                        help="the level of detail to read from a file holding several (a streamed "
+                             "SOG lod-meta.json): 0 is the finest (default: the finest); `info` "
+                             "lists a file's levels; a file of one level has level 0 only")
+
+
 def check_selection(args, usage_error) -> None:
     """The ranges argparse cannot say (usage_error: the command's UsageError)."""
     if not 0.0 <= args.min_opacity <= 1.0:

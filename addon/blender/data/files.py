@@ -25,15 +25,17 @@ AXES_ITEMS = ("AUTO",) + AXES
 BAD_POLICIES = ("fix", "drop", "error")
 
 
-def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad="fix", max_splats=None):
+def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad="fix", max_splats=None,
+                    lod=None):
     """(SplatSet, ReadReport) after the import options. max_count 0 means no limit;
-    max_splats is the reader's splat budget (formats.read_with_report).
+    max_splats is the reader's splat budget, lod the level of detail of a streamed SOG
+    (formats.read_with_report; None: the finest).
     A file, or a selection, with no splats is an error: there would be nothing to animate."""
     if bad not in BAD_POLICIES:
         raise ValueError(f"bad-value policy {bad!r} is not one of {BAD_POLICIES}")
     splats, report = formats.read_with_report(
         path, sh_degree=max_sh_degree, min_opacity=min_opacity if min_opacity > 0 else None,
-        max_count=max_count if max_count > 0 else None, bad=bad, max_splats=max_splats)
+        max_count=max_count if max_count > 0 else None, bad=bad, max_splats=max_splats, lod=lod)
     if report.count_in_file == 0:
         raise SplatFormatError(path, "holds no splats (0 vertices)")
     if splats.count == 0:
@@ -44,19 +46,20 @@ def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad=
 
 def object_name(path) -> str:
     path = os.fspath(path)
-    if os.path.basename(path).lower() == "meta.json":  # an unbundled SOG: name it by its folder
+    if os.path.basename(path).lower() in ("meta.json", "lod-meta.json"):  # a SOG folder: its name
         path = os.path.dirname(os.path.abspath(path))
     return os.path.splitext(os.path.basename(path))[0] or "Splats"
 
 
 def import_file_with_report(context, path, *, max_sh_degree=3, min_opacity=0.0, max_count=0,
-                            axes="AUTO", collection=None, bad="fix", progress=None, max_splats=None):
+                            axes="AUTO", collection=None, bad="fix", progress=None, max_splats=None,
+                            lod=None):
     """import_file, also returning the reader's ReadReport (bad-value counts, file degree).
     progress, if given, is called with the fraction done (0..1) after each stage."""
     if axes not in AXES_ITEMS:
         raise ValueError(f"axes {axes!r} is not one of {AXES_ITEMS}")
     splats, report = read_for_import(path, max_sh_degree=max_sh_degree, min_opacity=min_opacity,
-                                     max_count=max_count, bad=bad, max_splats=max_splats)
+                                     max_count=max_count, bad=bad, max_splats=max_splats, lod=lod)
     if progress is not None:
         progress(0.6)  # reading is about 60% of an import (bench/import_bench.py, read column)
     if axes != "AUTO":

@@ -129,12 +129,12 @@ def _rest_floats(manifest: Manifest, lod: int, max_degree: int) -> int:
     """Higher-SH floats a splat of the level will hold: from its first chunk's meta.json
     (a few KB), or the most a SOG holds where that is a bundled .sog."""
     first = manifest.chunks[lod][0][0] if manifest.chunks[lod] else None
-    if first is None or os.path.basename(first).lower() != "meta.json":
-        return 3 * sh_coeff_count(max_degree)
     try:
-        meta = parse_meta(first, bytes(read_whole(first, 1 << 20)))
+        meta = _chunk_meta(first) if first else None
     except SplatFormatError as exc:
         raise SplatFormatError(exc.path, f"{exc.reason} (level {lod} of {manifest.path})") from None
+    if meta is None:
+        return 3 * sh_coeff_count(max_degree)
     shn = meta.get("shN")
     bands = shn.get("bands", 3) if isinstance(shn, dict) else 0
     return 3 * sh_coeff_count(min(bands if _int(bands, 0, 3) else 3, max_degree))
@@ -170,7 +170,11 @@ def read_streamed_sog(path, max_degree: int = 3, max_splats=None, lod=None) -> S
     out, start, degree_in_file = None, 0, None
     for i, (chunk, count) in enumerate(chunks):
         where = f"chunk {i + 1} of {len(chunks)} of level {lod} of {manifest.path}"
-        try:  # a chunk claiming more than the tree gives it is refused before it is decoded
+        try:  # a chunk claiming other than the tree gives it is refused before it is decoded
+            meta = _chunk_meta(chunk)
+            claimed = None if meta is None else meta["count"]
+            if claimed not in (None, count):
+                raise SplatFormatError(chunk, f"holds {claimed} splats, the tree gives it {count}")
             part = read_sog(chunk, max_degree, max_splats=count)
         except SplatFormatError as exc:
             raise SplatFormatError(exc.path, f"{exc.reason} ({where})") from None
@@ -188,6 +192,14 @@ def read_streamed_sog(path, max_degree: int = 3, max_splats=None, lod=None) -> S
         out = SplatSet.allocate(0, 0, AXES_RDF)
     out.sh_degree_in_file = degree_in_file or 0
     return out
+
+
+def _chunk_meta(chunk) -> dict | None:
+    """An unbundled chunk's meta.json, checked (a few KB read); None for a bundled .sog,
+    whose count read_sog checks against the tree's as a splat budget."""
+    if os.path.basename(chunk).lower() != "meta.json":
+        return None
+    return parse_meta(chunk, bytes(read_whole(chunk, 1 << 20)))
 
 
 def _place(out: SplatSet, part: SplatSet, start: int) -> None:

@@ -94,6 +94,11 @@ def _options(args, splats, report):
     return kept.check(), report
 
 
+def _level(report) -> str:
+    """'level 1 of 3, ' for a file with levels of detail, else ''."""
+    return f"level {report.level} of {len(report.levels)}, " if report.levels else ""
+
+
 def _check_inputs(args) -> None:
     blends = [p for p in args.input if is_blend(p)]
     if len(blends) > 1:
@@ -125,7 +130,7 @@ def run(args) -> int:
     notes = write(args.output, splats, fmt, **({"version": args.spz_version} if fmt == "spz" else {}))
     for note in notes:
         print(f"warning: {args.output}: {note}", file=sys.stderr)
-    source = ", ".join(f"{r.path} ({r.format}, {r.count_in_file} splats)" for _, r in loaded)
+    source = ", ".join(f"{r.path} ({r.format}, {_level(r)}{r.count_in_file} splats)" for _, r in loaded)
     print(f"{source} -> {args.output} "
           f"({fmt}, {splats.count} splats, SH degree {min(splats.sh_degree, table.row(fmt).max_sh_degree)})")
     return 0

@@ -23,8 +23,8 @@ def configure(parser):
     parser.add_argument("files", nargs="+", metavar="FILE", help=f"{table.readable_help()} files")
     parser.add_argument("--blend", required=True, metavar="OUT.blend", help="the .blend file to write")
     add_selection(parser)
-    add_axes(parser)
     add_lod(parser)
+    add_axes(parser)
     add_bad_values(parser)
     parser.add_argument("--effect-preset", action="append", default=[], metavar="NAME",
                         help="apply an effect preset to every imported object, keyed from the "

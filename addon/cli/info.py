@@ -18,8 +18,8 @@ def configure(parser):
     parser.add_argument("file", help=f"a {table.readable_help()} file")
     parser.add_argument("--json", action="store_true", help="print one JSON object (default: a table)")
     add_max_splats(parser)
-    add_axes(parser)
     add_lod(parser)
+    add_axes(parser)
     parser.add_argument("--stats", action="store_true",
                         help="also min, max, mean, std and NaN/Inf count of each activated quantity "
                              "(x y z, opacity 0..1, linear scales, volume, DC colour r g b; default: off)")
@@ -27,7 +27,8 @@ def configure(parser):
 
 def summarize(path, stats=False, max_splats=None, axes=None, lod=None) -> dict:
     """What `info` prints, as a dict (bad values are counted, not dropped); `axes` overrides
-    the file's convention (the bounds are the file's values either way)."""
+    the file's convention (the bounds are the file's values either way). A file with levels
+    of detail lists them; the rest describes the level read (`lod`, default the finest)."""
     splats, report = read_with_report(path, bad="fix", max_splats=max_splats, axes=axes,
                                       keep_replaced=True, lod=lod)
     pos = splats.positions
@@ -44,7 +45,16 @@ def summarize(path, stats=False, max_splats=None, axes=None, lod=None) -> dict:
         "bbox_min": bbox_min, "bbox_max": bbox_max,
         "bad_values": report.bad.as_dict(),
         "file_bytes": report.file_bytes,
-    } | ({"stats": statistics(splats, report.bad.replaced)} if stats else {})
+    } | ({"levels": report.levels, "level": report.level} if report.levels is not None else {}) | ({"stats": statistics(splats, report.bad.replaced)} if stats else {})
+
+
+def _levels(info) -> list:
+    """The levels of detail rows: every level's count, and which one the rest describes."""
+    if "levels" not in info:
+        return []
+    listed = ", ".join(f"{lod}: {'?' if n is None else f'{n:,}'}" for lod, n in enumerate(info["levels"]))
+    return [("levels", f"{len(info['levels'])} ({listed} splats; 0 is the finest)"),
+            ("level read", f"{info['level']} (--lod N reads another)")]
 
 
 def _fmt_vec(v) -> str:
@@ -63,7 +73,7 @@ def run(args) -> int:
         return 0
     bad = info["bad_values"]
     rows = [
-        ("file", info["file"]), ("format", info["format"]), ("splats", f"{info['count']:,}"),
+        ("file", info["file"]), ("format", info["format"]), *_levels(info), ("splats", f"{info['count']:,}"),
         ("SH degree", info["sh_degree"]), ("axes", info["axes"]),
         ("anti-aliased", "yes (trained so: rendered with the compensation)" if info["antialiased"] else "no"),
         ("bbox min", _fmt_vec(info["bbox_min"])), ("bbox max", _fmt_vec(info["bbox_max"])),

@@ -58,16 +58,18 @@ def add_selection(parser, sh_alias: str | None = None) -> None:
     add_max_splats(parser)
 
 
-def add_lod(parser) -> None:
-    parser.add_argument("--lod", type=int, default=None, metavar="N",
-                        help="the level of detail to read from a scene that holds several (.lcc, "
-                             ".lcc2): 0, the finest, by default; other formats refuse it")
-
-
 def add_max_splats(parser) -> None:
     parser.add_argument("--max-splats", type=int, default=None, metavar="N",
                         help="splat budget: refuse a file claiming more than N splats before "
                              "decompressing it (default: what fits in available memory)")
+
+
+def add_lod(parser) -> None:
+    """--lod: which level of detail of a file that holds several."""
+    parser.add_argument("--lod", type=int, default=None, metavar="N",
+                        help="the level of detail to read from a file holding several (a streamed "
+                             "SOG lod-meta.json, .lcc, .lcc2): 0 is the finest (default: the finest); "
+                             "`info` lists a file's levels; a file of one level has level 0 only")
 
 
 def check_selection(args, usage_error) -> None:

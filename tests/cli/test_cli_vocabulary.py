@@ -47,7 +47,8 @@ def test_an_option_means_the_same_in_every_sub_command():
     # the ones the issue named are shared now
     for option, commands in (("--axes", COMMANDS), ("--bad-values", ("import", "convert")),
                              ("--max-sh-degree", ("import", "convert")), ("--frames", ("render", "demo")),
-                             ("--seconds", ("render", "import", "demo")), ("--max-splats", ("info", "import", "convert"))):
+                             ("--seconds", ("render", "import", "demo")), ("--max-splats", ("info", "import", "convert")),
+                             ("--lod", ("info", "import", "convert"))):
         have = [c for c, p in _subparsers().items() if option in _options(p)]
         assert set(commands) <= set(have), (option, have)
     assert tuple(_options(_subparsers()["convert"])["--axes"].choices) == ("AUTO", "RDF", "RUB", "RFU")

@@ -28,8 +28,8 @@ BAD_POLICIES = ("fix", "drop", "error")
 def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad="fix", max_splats=None,
                     lod=None):
     """(SplatSet, ReadReport) after the import options. max_count 0 means no limit;
-    max_splats is the reader's splat budget, lod the level of detail of an LCC scene
-    (formats.read_with_report).
+    max_splats is the reader's splat budget, lod the level of detail of a file holding several
+    (a streamed SOG, an LCC or LCC2 scene; formats.read_with_report; None: the finest).
     A file, or a selection, with no splats is an error: there would be nothing to animate."""
     if bad not in BAD_POLICIES:
         raise ValueError(f"bad-value policy {bad!r} is not one of {BAD_POLICIES}")
@@ -46,7 +46,7 @@ def read_for_import(path, *, max_sh_degree=3, min_opacity=0.0, max_count=0, bad=
 
 def object_name(path) -> str:
     path = os.fspath(path)
-    if os.path.basename(path).lower() == "meta.json":  # an unbundled SOG: name it by its folder
+    if os.path.basename(path).lower() in ("meta.json", "lod-meta.json"):  # a SOG folder: its name
         path = os.path.dirname(os.path.abspath(path))
     return os.path.splitext(os.path.basename(path))[0] or "Splats"
 

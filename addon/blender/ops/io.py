@@ -70,6 +70,9 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                        description="Axis convention of the file, applied as the object's rotation")
     bad_values: EnumProperty(name="Bad Values", items=_BAD_ENUM, default="fix",
                              description="What to do with splats holding NaN/Inf values or zero quaternions")
+    lod: IntProperty(name="Level of Detail", default=0, min=0,
+                     description="The level to read from a file holding several (a streamed SOG "
+                                 "lod-meta.json, .lcc, .lcc2): 0 is the finest; other files have level 0 only")
 
     def paths(self) -> list[str]:
         return picked_paths(self)
@@ -95,7 +98,7 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
                         continue
                     obj, report = import_file_with_report(
                         context, path, max_sh_degree=self.max_sh_degree, min_opacity=self.min_opacity,
-                        max_count=self.max_count, axes=self.axes, bad=self.bad_values,
+                        max_count=self.max_count, axes=self.axes, bad=self.bad_values, lod=self.lod,
                         progress=lambda done, i=i: wm.progress_update(i + done))
                 except SplatFormatError as exc:
                     errors.append(str(exc))
@@ -124,7 +127,7 @@ class IMPORT_SCENE_OT_splatline_gaussians(bpy.types.Operator, ImportHelper):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        for name in ("max_sh_degree", "min_opacity", "max_count", "axes", "bad_values"):
+        for name in ("max_sh_degree", "min_opacity", "max_count", "axes", "bad_values", "lod"):
             layout.prop(self, name)
 
 

@@ -47,6 +47,8 @@ class ReadReport:
     sh_degree_in_file: int = 0
     bad: BadValues = field(default_factory=BadValues)
     file_bytes: int | None = None  # the size of the file as it was read (not a later stat)
+    levels: list[int] | None = None  # splats per level of detail, finest first (streamed SOG)
+    level: int = 0                   # the level read
 
     @property
     def dropped_sh(self) -> str:
@@ -73,11 +75,21 @@ def detect_format(path) -> str:
     return fmt.name  # a zip, a meta.json or a glTF is checked further by its reader
 
 
-def _reader(fmt: str):
+def _row(fmt: str) -> table.Format:
     row = table.row(fmt)
     if row is None:
         raise SplatFormatError(None, f"unknown read format {fmt!r}; known: {', '.join(_DERIVED['READ_FORMATS']())}")
-    return row.read
+    return row
+
+
+def _read(row: table.Format, path, max_degree: int, max_splats, lod):
+    """The reader's splats at level of detail `lod` (None: the finest); a file of one level
+    has level 0 only."""
+    if "lod" in row.read_options:
+        return row.read(path, max_degree, max_splats, {"lod": lod})
+    if lod not in (None, 0):
+        raise SplatFormatError(path, f"has one level of detail (0), not level {lod}")
+    return row.read(path, max_degree, max_splats)
 
 
 def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix",
@@ -90,22 +102,25 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
     decompressed or allocated (None: what fits in available memory; unlike max_count, it
     never subsamples). keep_replaced: with bad="fix", report.bad.replaced keeps the fixed
     splats' original values (core/validate.py), for statistics that leave the replaced
-    values out. `lod`: the level of detail to read from a format that holds several (LCC,
-    LCC2; 0 the finest, the default); a format without levels refuses it."""
+    values out. `lod`: the level of detail to read from a format that holds several (a
+    streamed SOG, LCC, LCC2; None: the finest, 0); a format of one level takes 0 only."""
     if axes is not None and axes not in AXES:
         raise ValueError(f"axes {axes!r} is not one of {AXES}")
     max_degree = 3 if sh_degree is None else max(0, min(3, int(sh_degree)))
     try:  # open/read can still fail after the stat checks (permission denied, I/O error)
         fmt = format or detect_format(path)
+        row = _row(fmt)
         with readfile.recording() as opened:
-            splats = _reader(fmt)(path, max_degree, max_splats, lod=lod)
+            splats = _read(row, path, max_degree, max_splats, lod)
+        levels = row.level_counts(path)
     except OSError as exc:
         raise SplatFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     if axes is not None:
         splats.axes = axes
     in_file = splats.sh_degree if splats.sh_degree_in_file is None else splats.sh_degree_in_file
     report = ReadReport(os.fspath(path), fmt, splats.count, in_file,
-                        file_bytes=next((n for p, n in opened if p == os.fspath(path)), None))
+                        file_bytes=next((n for p, n in opened if p == os.fspath(path)), None),
+                        levels=levels, level=lod or 0)
     splats, report.bad = check_values(splats, bad, path, keep_replaced)
     splats = select(splats, sh_degree, min_opacity, max_count)
     return splats.check(), report
@@ -113,7 +128,8 @@ def read_with_report(path, sh_degree=None, min_opacity=None, max_count=None, bad
 
 def read(path, sh_degree=None, min_opacity=None, max_count=None, bad="fix", format=None,
          axes=None, max_splats=None, lod=None) -> SplatSet:
-    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format, axes, max_splats, lod=lod)[0]
+    return read_with_report(path, sh_degree, min_opacity, max_count, bad, format, axes, max_splats,
+                            lod=lod)[0]
 
 
 def format_for_output(path) -> str:

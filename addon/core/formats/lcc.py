@@ -68,6 +68,11 @@ def _sibling(path, name) -> str:
     return os.path.join(os.path.dirname(os.fspath(path)), name)
 
 
+def level_counts(path) -> list[int]:
+    """Splats per LOD, LOD 0 (the finest) first, as the meta file says (info lists them)."""
+    return list(_meta(path)["splats"])
+
+
 def _meta(path) -> dict:
     raw = read_whole(path, MAX_META)
     try:

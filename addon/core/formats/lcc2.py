@@ -45,6 +45,19 @@ def read_lcc2(path, max_degree: int = 3, max_splats=None, lod=None) -> SplatSet:
     return _concat(parts, max_degree)
 
 
+def level_counts(path) -> list:
+    """Splats per LOD, LOD 0 first, summed over the nodes' counts without decoding a chunk:
+    None for a level where a node gives no count, 0 for a level with no chunks."""
+    meta, out = _meta(path), []
+    for lod in range(meta["levels"]):
+        try:
+            counts = list(_chunks(path, meta, lod).values())
+        except SplatFormatError:  # no chunk at this level
+            counts = [0]
+        out.append(None if None in counts else sum(counts))
+    return out
+
+
 def _meta(path) -> dict:
     raw = read_whole(path, MAX_META)
     try:

@@ -43,14 +43,16 @@ class Format:
     writer_args fixed keywords for the writer ((("binary_container", False),))
     options     the write options formats.write passes on (spz "version"); a writer without
                 any is called without the caller's options
+    read_options    the read options formats.read passes on ("lod": streamed SOG, LCC, LCC2); a reader
+                without any is called without them
+    levels      for a format with levels of detail, "module:function" (or a callable): path ->
+                splats per level, finest first, without decoding (info lists them)
     axes        the convention its files hold; a set in another is re-expressed before writing
     max_sh_degree   the highest SH degree the writer stores
     drop        offered for drag-and-drop (FileHandler): not for extensions other importers own
     write_bytes what the writer allocates at its peak beyond the splats it is given: bytes per
                 splat and per higher-SH float (core/budget.after_read; measured at 1M splats,
                 degrees 0 and 3, with a sixth to spare: bench/memory_budget_bench.py)
-    lods        its files hold levels of detail: the reader takes `lod` (0, the finest, when
-                None); formats.read refuses `lod` for the other rows
     """
     name: str
     label: str
@@ -65,11 +67,12 @@ class Format:
     file_names: tuple[str, ...] = ()
     writer_args: tuple[tuple[str, object], ...] = ()
     options: tuple[str, ...] = ()
+    read_options: tuple[str, ...] = ()
+    levels: str | Callable | None = None
     axes: str = AXES_RDF
     max_sh_degree: int = 3
     drop: bool = True
     write_bytes: tuple[int, int] = (0, 0)
-    lods: bool = False
 
     def write_cost(self, count: int, rest_floats: int) -> int:
         per_splat, per_float = self.write_bytes
@@ -79,13 +82,13 @@ class Format:
         """Whether a file starting with `head` (its first 4 KiB) is this format by its bytes."""
         return any(head.startswith(m) for m in self.magic) and (self.sniff is None or self.sniff(head))
 
-    def read(self, path, max_degree: int, max_splats, lod=None):
-        if lod is None:
-            return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats)
-        if not self.lods:
-            from ..errors import SplatFormatError
-            raise SplatFormatError(path, f"{self.label} files have no levels of detail to pick (lod {lod})")
-        return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats, lod=lod)
+    def read(self, path, max_degree: int, max_splats, options: dict | None = None):
+        given = {k: v for k, v in (options or {}).items() if k in self.read_options}
+        return _resolve(self.reader)(path, max_degree=max_degree, max_splats=max_splats, **given)
+
+    def level_counts(self, path) -> list[int] | None:
+        """Splats per level of detail, finest first; None for a format without levels."""
+        return None if self.levels is None else list(_resolve(self.levels)(path))
 
     def write(self, path, splats, options: dict) -> list:
         """The writer's notes: one line each for what the format could not keep as it was
@@ -124,6 +127,11 @@ ROWS: list[Format] = [
     # GaussianSplats3D's SplatBuffer: read only, no magic (it starts with its version bytes)
     Format("ksplat", "GaussianSplats3D KSPLAT", "mkkellogg's three.js viewer format, levels 0-2",
            ".ksplat", (".ksplat",), "ksplat:read_ksplat", max_sh_degree=2),
+    # streamed SOG: a folder of SOG chunks at several levels of detail, read one level at a time
+    Format("streamed_sog", "PlayCanvas streamed SOG", "lod-meta.json and its SOG chunks, levels of detail",
+           "a streamed SOG lod-meta.json", (), "streamed_sog:read_streamed_sog",
+           file_names=("lod-meta.json",), read_options=("lod",), levels="streamed_sog:level_counts",
+           drop=False),
     # glTF: RDF in and out; the reader and writer turn it into glTF's own frame. Never offered
     # for drops: a FileHandler cannot see the file, so it would stand in front of every glTF.
     Format("glb", "glTF binary", "KHR_gaussian_splatting glTF, one binary file", ".glb", (".glb",),
@@ -135,9 +143,11 @@ ROWS: list[Format] = [
     # XGRIDS scanners' scenes: a JSON meta file beside its data files (lcc.py, lcc2.py), read
     # only, one level of detail (the finest unless `lod` says); z up as splat-transform reads them
     Format("lcc", "XGRIDS LCC", "LixelKity / Lixel CyberColor scene (meta.lcc with data.bin)",
-           ".lcc (an XGRIDS scene's meta file)", (".lcc",), "lcc:read_lcc", axes=AXES_RFU, lods=True),
+           ".lcc (an XGRIDS scene's meta file)", (".lcc",), "lcc:read_lcc", axes=AXES_RFU,
+           read_options=("lod",), levels="lcc:level_counts"),
     Format("lcc2", "XGRIDS LCC2", "XGRIDS octree scene of SOG or SPZ chunks",
-           ".lcc2", (".lcc2",), "lcc2:read_lcc2", axes=AXES_RFU, lods=True),
+           ".lcc2", (".lcc2",), "lcc2:read_lcc2", axes=AXES_RFU,
+           read_options=("lod",), levels="lcc2:level_counts"),
 ]
 
 

@@ -113,7 +113,7 @@ def test_lod_out_of_range_and_lod_on_a_format_without_levels(tmp_path):
     ply = tmp_path / "x.ply"
     from addon.core.formats import write
     write(ply, random_splats(4, 0))
-    with pytest.raises(SplatFormatError, match="no levels of detail"):
+    with pytest.raises(SplatFormatError, match="has one level of detail"):
         read(ply, lod=1)
 
 

@@ -8,6 +8,7 @@ import contextlib
 import inspect
 import json
 import re
+import shutil
 import struct
 
 import numpy as np
@@ -25,11 +26,14 @@ from testing.webp_support import STRAIGHT_WEBP
 # until it names one. gltf: the test64.glb capture's own document and buffer, unpacked from
 # the binary container into a .gltf with an embedded buffer (no .gltf capture is stored).
 # ksplat: guitar.ply written at level 2 by testing/ksplat_write.py (no .ksplat is stored).
+# streamed_sog: the unbundled test64 SOG as the one chunk of a one-level lod-meta.json (the
+# peer's own multi-level files: tests/core/formats/test_formats_streamed_sog.py).
 # lcc, lcc2: no scanner's scene is stored (none is public to us); guitar.ply written as one by
 # testing/lcc_files.py, to the layout splat-transform reads (a coarser LOD beside it).
 CAPTURES = {"ply": "guitar.ply", "compressed_ply": "guitar.compressed.ply", "splat": "guitar.splat",
             "spz": "guitar.spz", "sog": "guitar.sog", "glb": "test64.glb", "gltf": "test64.glb",
-            "ksplat": "guitar.ply", "lcc": "guitar.ply", "lcc2": "guitar.ply"}
+            "ksplat": "guitar.ply", "lcc": "guitar.ply", "lcc2": "guitar.ply",
+            "streamed_sog": "test64_sog_unbundled"}
 
 
 def _glb_as_gltf(glb: bytes) -> bytes:
@@ -51,6 +55,12 @@ def _capture(name, testdata, tmp_path):
         guitar = formats.read(testdata / CAPTURES[name])
         lods = [guitar, guitar.subset(slice(None, None, 4))]
         return write_lcc(tmp_path / "lcc", lods) if name == "lcc" else write_lcc2(tmp_path / "lcc2", lods)
+    if name == "streamed_sog":
+        shutil.copytree(testdata / CAPTURES[name], tmp_path / "0_0")
+        leaf = {"bound": {"min": [0, 0, 0], "max": [1, 1, 1]}, "lods": {"0": {"file": 0, "offset": 0, "count": 64}}}
+        (tmp_path / "lod-meta.json").write_text(json.dumps({"version": 1, "count": 64, "counts": [64], "lodLevels": 1,
+                                                            "filenames": ["0_0/meta.json"], "tree": leaf}))
+        return tmp_path / "lod-meta.json"
     if name != "gltf":
         return testdata / CAPTURES[name]
     out = tmp_path / "test64.gltf"
@@ -64,14 +74,14 @@ def test_every_row_has_a_capture():
 
 @pytest.mark.parametrize("name", [r.name for r in table.rows()])
 def test_each_row_reads_its_capture(testdata, tmp_path, name):
-    if name == "sog" and not STRAIGHT_WEBP:
+    if name in ("sog", "streamed_sog") and not STRAIGHT_WEBP:
         pytest.skip("this OpenImageIO premultiplies WebP alpha (Blender 4.5): SOG is refused here")
     path = _capture(name, testdata, tmp_path)
     assert formats.detect_format(path) == name
     splats, report = formats.read_with_report(path)
     assert report.format == name
     # the same capture as the float PLY it was made from (the glTF pair: test64)
-    source = formats.read(testdata / ("test64.ply" if CAPTURES[name] == "test64.glb" else "guitar.ply"))
+    source = formats.read(testdata / ("test64.ply" if CAPTURES[name].startswith("test64") else "guitar.ply"))
     assert splats.count == source.count > 0
     assert splats.axes == table.row(name).axes
     lo, hi = source.positions.min(axis=0), source.positions.max(axis=0)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ...core.lighting import shadows
 from ...core.lighting.lights import Light
-from ...core.lighting.normals import world_points
+from ...core.lighting.normals import splat_normals
 from ...core.lighting.shade import Lighting, lit_splats
 from ...core.scene import RenderItem
 from ..data.world import world_background
@@ -24,6 +24,9 @@ from .holdout_geometry import holdout_for
 
 _LIT: OrderedDict = OrderedDict()   # signature -> lit RenderItem, the last few
 _KEEP = 32
+_KEEP_BYTES = 1 << 30   # a light dragged makes a lit copy a step: 192 MB each at 1M, degree 3
+_NORMALS: OrderedDict = OrderedDict()   # item, place and camera -> (centres, normals)
+_KEEP_NORMALS = 4   # 48 bytes a splat each
 
 
 def amount(obj_eval) -> float:
@@ -73,17 +76,38 @@ def lit_item(item: RenderItem, lighting: Lighting, level: float, depsgraph) -> R
     if hit is not None:
         _LIT.move_to_end(signature)
         return hit
-    points = world_points(item.splats, item.world)
+    points, normals = _normals(item, lighting.eye)
     triangles = None if holdout is None else holdout.triangles
     visibility = [shadows.light_visibility(points, light, triangles, item.splats, item.world)
                   for light in lighting.lights]
-    splats = lit_splats(item.splats, item.world, lighting, level, visibility, points)
+    splats = lit_splats(item.splats, item.world, lighting, level, visibility, points, normals)
     lit = replace(item, splats=splats, key=(*item.key, ("lit", signature)),
                   base_fields=item.base_fields - {"sh_dc", "sh_rest"})
     _LIT[signature] = lit
-    while len(_LIT) > _KEEP:
+    while len(_LIT) > 1 and (len(_LIT) > _KEEP or sum(map(_colour_bytes, _LIT.values())) > _KEEP_BYTES):
         _LIT.popitem(last=False)
     return lit
+
+
+def _colour_bytes(item: RenderItem) -> int:
+    """What a lit item holds of its own: its colours (the rest is the unlit item's)."""
+    return item.splats.sh_dc.nbytes + item.splats.sh_rest.nbytes
+
+
+def _normals(item: RenderItem, eye) -> tuple:
+    """The item's world-space centres and normals, kept while only the lights change (a light
+    dragged in the viewport relights without recomputing them)."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(repr((item.key, item.instance, eye)).encode())
+    h.update(np.asarray(item.world, np.float64).tobytes())
+    signature = h.hexdigest()
+    hit = _NORMALS.get(signature)
+    if hit is None:
+        hit = _NORMALS[signature] = splat_normals(item.splats, item.world, eye)
+        while len(_NORMALS) > _KEEP_NORMALS:
+            _NORMALS.popitem(last=False)
+    _NORMALS.move_to_end(signature)
+    return hit
 
 
 def _signature(item, lighting, level, holdout) -> str:
@@ -95,3 +119,4 @@ def _signature(item, lighting, level, holdout) -> str:
 
 def clear() -> None:
     _LIT.clear()
+    _NORMALS.clear()

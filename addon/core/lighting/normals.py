@@ -19,14 +19,16 @@ def shortest_axes(rotations: np.ndarray, scales: np.ndarray) -> np.ndarray:
     q = np.asarray(rotations, np.float64)
     norm = np.linalg.norm(q, axis=1)
     q = np.where((norm > 0)[:, None], q / np.where(norm > 0, norm, 1.0)[:, None], [1.0, 0, 0, 0])
-    w, x, y, z = q.T
-    axis = np.argmin(np.asarray(scales), axis=1)
-    # the rotation matrix's column `axis`, computed for that column alone
+    j = np.argmin(np.asarray(scales), axis=1)
+    # Column j of the rotation matrix alone. The columns are one formula under the cyclic
+    # relabelling x -> y -> z: with (a, b, c) the quaternion's (x, y, z) rolled to start at j,
+    # column j holds (1 - 2(b^2 + c^2), 2(ab + wc), 2(ac - wb)) at rows j, j+1, j+2.
+    roll = (j[:, None] + np.arange(3)[None, :]) % 3
+    w = q[:, 0]
+    a, b, c = np.take_along_axis(q[:, 1:], roll, axis=1).T
     out = np.empty((len(q), 3))
-    c0, c1, c2 = axis == 0, axis == 1, axis == 2
-    out[c0] = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], 1)[c0]
-    out[c1] = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], 1)[c1]
-    out[c2] = np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], 1)[c2]
+    np.put_along_axis(out, roll, np.stack([1 - 2 * (b * b + c * c), 2 * (a * b + w * c),
+                                           2 * (a * c - w * b)], 1), axis=1)
     return out
 
 

@@ -97,13 +97,15 @@ def radiance_factor(lighting: Lighting, points: np.ndarray, normals: np.ndarray,
 
 
 def lit_splats(splats, world: np.ndarray, lighting: Lighting, amount: float, visibility=None,
-               points=None):
+               points=None, normals=None):
     """The splats lit by `lighting` at Look > Lighting `amount` (new sh_dc and sh_rest; the
-    rest shared). amount 0: the splats themselves, untouched. points: their world-space
-    centres (normals.world_points), where the caller has them (for the shadows)."""
+    rest shared). amount 0: the splats themselves, untouched. points, normals: what
+    normals.splat_normals gives for them, where the caller has it (the viewport keeps it
+    while only lights move; the shadows need the points)."""
     if amount <= 0.0 or splats.count == 0:
         return splats
-    points, normals = splat_normals(splats, world, lighting.eye, points)
+    if normals is None:
+        points, normals = splat_normals(splats, world, lighting.eye, points)
     factor = radiance_factor(lighting, points, normals, visibility)
     return with_colour_factor(splats, colour_factor(splats.sh_dc, factor, amount))
 
@@ -121,6 +123,6 @@ def with_colour_factor(splats, k: np.ndarray):
     """Splats whose colour, in every view direction, is k times theirs (k >= 0, (N, 3))."""
     dc = (k * (0.5 + C0 * splats.sh_dc.astype(np.float64)) - 0.5) / C0
     rest = splats.sh_rest
-    if rest.size:
-        rest = (rest.astype(np.float64) * k[:, None, :]).astype(np.float32)
+    if rest.size:  # in float32, as stored: a float64 copy of degree 3's 45 floats a splat cost 9x the time
+        rest = rest * k.astype(np.float32)[:, None, :]
     return replace(splats, sh_dc=dc.astype(np.float32), sh_rest=rest)

@@ -106,6 +106,20 @@ def test_lcc2_reads_each_lod_of_its_chunks(tmp_path, kind):
         assert gap.min(1).max() < 2e-3 and len(set(gap.argmin(1))) == back.count
 
 
+@pytest.mark.parametrize("kind", ["lcc", "lcc2"])
+def test_info_lists_each_lod_and_describes_the_one_read(tmp_path, kind):
+    """`info` lists every LOD's count from the meta files without decoding, and they are
+    the counts a read of that LOD gives."""
+    from addon.cli.info import summarize
+    lods = _lods()
+    path = write_lcc(tmp_path / "s", lods) if kind == "lcc" else write_lcc2(tmp_path / "s", lods, splat_type=".spz")
+    counts = [s.count for s in lods]
+    for lod in (None, 2):
+        info = summarize(path, lod=lod)
+        assert (info["levels"], info["level"], info["count"]) == (counts, lod or 0, counts[lod or 0])
+        assert read(path, lod=lod).count == info["count"]
+
+
 def test_lod_out_of_range_and_lod_on_a_format_without_levels(tmp_path):
     path = write_lcc(tmp_path / "s", _lods())
     with pytest.raises(SplatFormatError, match=r"LODs 0\.\.2 .*no LOD 3"):

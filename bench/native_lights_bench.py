@@ -8,6 +8,10 @@
 2. Splats' shadows on meshes: a 1 m sheet of opaque flat splats 1 m above a 4 m mesh plane, a
    sun straight down, a camera under the sheet looking at the plane; printed: the plane's red
    under the sheet's middle without and with the splats.
+3. Shadow only: the same sheet hidden from the camera (visible_camera off), seen from above;
+   printed: the plane under the sheet and outside its shadow, without and with the sheet.
+4. Splatline's engine with the mesh layer in EEVEE and Cycles: the same sheet and plane
+   (testing/splat_shadow_scene.py), the sheet's shadow off and on (render/shadow_casters.py).
 Each render runs in a child process of its own (5.3.0 may crash on a second EEVEE render or
 at exit): the written EXR decides.
 """
@@ -60,6 +64,27 @@ def _shadow_scene(bpy, on: bool):
     return 60, 60
 
 
+def _shadow_only_scene(bpy, on: bool):
+    """The sheet and plane of _shadow_scene seen from above, the sheet hidden from the camera
+    (Object > Visibility > Camera off) but casting shadows: what a shadow-only caster gives."""
+    from testing.engine_scene import add_splats
+    from testing.lit_scene import add_light, white_floor
+
+    sheet = add_splats(bpy, "Sheet", white_floor(spacing=0.03, size=1.0))
+    sheet.location = (0, 0, 1.0)
+    sheet.visible_camera = False
+    sheet.hide_render = not on
+    bpy.ops.mesh.primitive_plane_add(size=4)
+    add_light(bpy, "SUN", location=(0, 0, 5))
+    cam = bpy.data.cameras.new("Above")
+    cam.type, cam.ortho_scale = "ORTHO", 3.0
+    obj = bpy.data.objects.new("Above", cam)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location = (0, 0, 3.0)
+    bpy.context.scene.camera = obj
+    return 60, 60
+
+
 def _child(case: str, engine: str, on: bool, out: str) -> None:
     import bpy
 
@@ -67,7 +92,7 @@ def _child(case: str, engine: str, on: bool, out: str) -> None:
     from addon.cli import blender_session
 
     blender_session.start()
-    width, height = {"lights": _lights_scene, "shadow": _shadow_scene}[case](bpy, on)
+    width, height = {"lights": _lights_scene, "shadow": _shadow_scene, "shadow_only": _shadow_only_scene}[case](bpy, on)
     scene = bpy.context.scene
     scene.render.engine = engine
     if engine == "CYCLES":
@@ -113,6 +138,32 @@ def main() -> None:
             red = [float(f[25:35, 25:35, 0].mean()) for f in frames]
             print(f"{engine} splat sheet over a mesh plane: the plane under it {red[0]:.3f} without, "
                   f"{red[1]:.3f} with the splats")
+        for engine in ("BLENDER_EEVEE", "CYCLES"):
+            frames = [_frame("shadow_only", engine, on, folder) for on in (False, True)]
+            if any(f is None for f in frames):
+                print(f"{engine}: no frame written")
+                continue
+            middle, edge = ([float(f[25:35, 25:35, 0].mean()) for f in frames],
+                            [float(f[2:6, 2:6, 0].mean()) for f in frames])
+            print(f"{engine} the sheet hidden from the camera, seen from above: the plane under it "
+                  f"{middle[0]:.3f} without, {middle[1]:.3f} with the sheet; outside its shadow "
+                  f"{edge[0]:.3f} and {edge[1]:.3f}")
+        casters_rows(folder)
+
+
+def casters_rows(folder) -> None:
+    """Splatline's engine with its mesh layer in EEVEE and Cycles (render/shadow_casters.py):
+    the sheet's shadow on the plane with the sheet's Visibility > Shadow off and on."""
+    from testing.splat_shadow_scene import EDGE, MIDDLE, red, render_in_child
+
+    for engine in ("EEVEE", "CYCLES"):
+        off, _ = render_in_child(engine, "no_shadow", Path(folder) / f"casters-{engine}-off")
+        on, _ = render_in_child(engine, "shadow", Path(folder) / f"casters-{engine}-on")
+        if off is None or on is None:
+            print(f"Splatline's engine, mesh layer {engine}: no frame written")
+            continue
+        print(f"Splatline's engine, mesh layer {engine}: the plane under the sheet {red(off, MIDDLE):.3f} "
+              f"with its shadow off, {red(on, MIDDLE):.3f} on (outside {red(off, EDGE):.3f}, {red(on, EDGE):.3f})")
 
 
 if __name__ == "__main__":

@@ -23,6 +23,9 @@ BASE = "radiance:base"
 # On the object that holds another splat object's evaluated splats for Blender's engines
 # (evaluated_geometry.py): it is that object's output, not a splat object of its own.
 COMPANION_MARK = "splatline_evaluated_of"
+# On a splat object's shadow caster in the mesh scene (render/shadow_casters.py): it shows
+# that object's splats to Blender's engines for shadows only; no splat object of its own.
+CASTER_MARK = "splatline_shadow_caster"
 log = logging.getLogger("splatline")
 _FLOAT4_TYPE = "FLOAT4" if "FLOAT4" in bpy.types.Attribute.bl_rna.properties["data_type"].enum_items else "FLOAT_COLOR"
 _VALUE_KEYS: dict[str, str] = {}

@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 
 from . import dynamic_source, sequence_source, stored_splats
-from .pointcloud import COMPANION_MARK
+from .pointcloud import CASTER_MARK, COMPANION_MARK
 from .source_kind import SplatSource
 
 # Most specific first: a sequence object may also hold splat attributes of its own.
@@ -30,7 +30,7 @@ def is_splat_object(obj, *, with_splat_data: bool = False) -> bool:
     own), or one whose splats come from a source of their own (a sequence's files): its own
     data may then hold none. with_splat_data=True keeps only the first kind, for callers
     that read the object's own attributes (export, camera framing, the sequence operators)."""
-    if obj is None or obj.type != "POINTCLOUD" or COMPANION_MARK in obj.keys():
+    if obj is None or obj.type != "POINTCLOUD" or COMPANION_MARK in obj.keys() or CASTER_MARK in obj.keys():
         return False
     if stored_splats.holds_splats(obj):
         return True

@@ -32,6 +32,7 @@ from ...core.scene import IDENTITY_COLOR, RenderItem
 from ...core.splats import SplatSet
 from ..data import evaluated_geometry as geometry
 from ..data import native
+from ..data.pointcloud import CASTER_MARK
 from ..data.sources import is_splat_object, source_of
 from .items import item_for, shown, splat_objects, stored_as_is
 from .native_outliers import KeptSets, wanted
@@ -128,8 +129,16 @@ def sync(depsgraph) -> int:
 
 
 def _skipped(scene, depsgraph) -> bool:
-    """Splatline's own final render draws from items: Blender's engines see nothing."""
-    return depsgraph.mode == "RENDER" and scene.render.engine == SPLATLINE_ENGINE
+    """Splatline's own final render draws from items: Blender's engines see nothing, unless
+    its mesh layer shows the splats' shadows (render/shadow_casters.py: the casters show the
+    evaluated splats)."""
+    return depsgraph.mode == "RENDER" and scene.render.engine == SPLATLINE_ENGINE and not _casts_shadows(scene)
+
+
+def _casts_shadows(scene) -> bool:
+    settings = getattr(scene, "splatline", None)
+    meshes = None if settings is None else settings.render.mesh_scene
+    return meshes is not None and any(CASTER_MARK in o.keys() for o in meshes.objects)
 
 
 @bpy.app.handlers.persistent

@@ -8,7 +8,8 @@ Render > Splatline > Meshes is Drawn gets:
   its own collections, the same camera, camera markers and world, and the engine chosen in
   Mesh Engine (Workbench, EEVEE, Cycles). Splat objects are never linked into it (Blender
   5.3 would draw them natively; older Blenders as points), nor collection instances or
-  Geometry Nodes objects that would bring splats in (their meshes then stay out too);
+  Geometry Nodes objects that would bring splats in (their meshes then stay out too); on
+  5.3 with EEVEE or Cycles it holds a shadow-only caster of each (shadow_casters.py);
 - a **compositor** in the Splatline scene: each Render Layers node of the scene's own layers
   goes through an Alpha Over node whose background is a Render Layers node of the
   mesh scene (mesh_compositor.py). With no compositor of the user's, Splatline makes one
@@ -36,7 +37,7 @@ from ..data.pointcloud import COMPANION_MARK
 from ..data.sources import is_splat_object
 from ..evaluate.holdout_geometry import is_surface
 from ..evaluate.instancers import instances_splats
-from . import mesh_compositor
+from . import mesh_compositor, shadow_casters
 
 ENGINE = "SPLATLINE"
 MARK = "splatline_meshes_of"          # on the mesh scene: the Splatline scene's name
@@ -91,10 +92,24 @@ def _collection_objects(collection, out):
         _collection_objects(child, out)
 
 
-def drawn_objects(scene) -> dict:
+def drawn_objects(scene, seen=None) -> dict:
     """{object: (holdout, indirect_only)} of what the mesh layer draws: surfaces, lights and
     light probes, and collection instances without splats in them, in the render-enabled
-    view layers of scene."""
+    view layers of scene (seen: render_objects(scene), where the caller has it)."""
+    out = {}
+    for obj, flags in (render_objects(scene) if seen is None else seen).items():
+        if COMPANION_MARK in obj.keys() or is_splat_object(obj):
+            continue
+        if (is_surface(obj) or obj.type in LIGHT_TYPES
+                or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None)):
+            if not instances_splats(obj):
+                out[obj] = flags
+    return out
+
+
+def render_objects(scene) -> dict:
+    """{object: (holdout, indirect_only)} of every object the render-enabled view layers of
+    scene show."""
     found = {}
     for layer in scene.view_layers:
         if not layer.use:
@@ -103,15 +118,7 @@ def drawn_objects(scene) -> dict:
             _layer_objects(layer.layer_collection, (False, False), found)
         else:  # a new scene's layer, never synced (5.2+): no exclusions can be set on it yet
             _collection_objects(scene.collection, found)
-    out = {}
-    for obj, flags in found.items():
-        if COMPANION_MARK in obj.keys() or is_splat_object(obj):
-            continue
-        if (is_surface(obj) or obj.type in LIGHT_TYPES
-                or (obj.instance_type == "COLLECTION" and obj.instance_collection is not None)):
-            if not instances_splats(obj):
-                out[obj] = flags
-    return out
+    return found
 
 
 def has_surfaces(objects) -> bool:
@@ -198,6 +205,14 @@ def _sync_objects(companion, objects):
         companion.collection.objects.unlink(obj)
 
 
+def _sync_casters(companion, sources) -> None:
+    """The splat objects' shadow casters (shadow_casters.py) in the mesh scene."""
+    if companion is None:
+        return
+    collection = _child(companion, shadow_casters.SUFFIX, make=bool(sources))
+    shadow_casters.sync(collection, sources, _set, _wrote_now)
+
+
 def _sync_settings(scene, companion):
     settings, r, src = scene.splatline.render, companion.render, scene.render
     _set(r, "engine", engine_id(settings.mesh_engine))
@@ -254,12 +269,15 @@ def sync(scene) -> bool:
     if is_mesh_scene(scene) or not hasattr(scene, "splatline"):
         return False
     _wrote[0] = False
-    objects = drawn_objects(scene) if wanted(scene) else {}
+    seen = render_objects(scene) if wanted(scene) else {}
+    objects = drawn_objects(scene, seen)
     if not has_surfaces(objects):
         mesh_compositor.detach(scene, _wrote_now)
+        _sync_casters(mesh_scene(scene), [])
         return _wrote[0]
     companion = _ensure_scene(scene)
     _sync_objects(companion, objects)
+    _sync_casters(companion, shadow_casters.sources(scene, seen))
     _sync_settings(scene, companion)
     mesh_compositor.attach(scene, companion, _wrote_now)
     return _wrote[0]

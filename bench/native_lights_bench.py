@@ -47,42 +47,21 @@ def _lights_scene(bpy, on: bool):
 
 
 def _shadow_scene(bpy, on: bool):
-    from testing.engine_scene import add_splats
-    from testing.lit_scene import add_light, white_floor
+    from testing.splat_shadow_scene import SIZE, sheet_over_plane
 
-    sheet = add_splats(bpy, "Sheet", white_floor(spacing=0.03, size=1.0))
-    sheet.location = (0, 0, 1.0)
-    sheet.hide_render = not on
-    bpy.ops.mesh.primitive_plane_add(size=4)
-    add_light(bpy, "SUN", location=(0, 0, 5))
-    cam = bpy.data.cameras.new("Below")
-    cam.type, cam.ortho_scale = "ORTHO", 3.0
-    obj = bpy.data.objects.new("Below", cam)
-    bpy.context.scene.collection.objects.link(obj)
-    obj.location = (0, 0, 0.5)
-    bpy.context.scene.camera = obj
-    return 60, 60
+    sheet_over_plane(bpy, camera_z=0.5).hide_render = not on
+    return SIZE, SIZE
 
 
 def _shadow_only_scene(bpy, on: bool):
     """The sheet and plane of _shadow_scene seen from above, the sheet hidden from the camera
     (Object > Visibility > Camera off) but casting shadows: what a shadow-only caster gives."""
-    from testing.engine_scene import add_splats
-    from testing.lit_scene import add_light, white_floor
+    from testing.splat_shadow_scene import SIZE, sheet_over_plane
 
-    sheet = add_splats(bpy, "Sheet", white_floor(spacing=0.03, size=1.0))
-    sheet.location = (0, 0, 1.0)
+    sheet = sheet_over_plane(bpy, camera_z=3.0)
     sheet.visible_camera = False
     sheet.hide_render = not on
-    bpy.ops.mesh.primitive_plane_add(size=4)
-    add_light(bpy, "SUN", location=(0, 0, 5))
-    cam = bpy.data.cameras.new("Above")
-    cam.type, cam.ortho_scale = "ORTHO", 3.0
-    obj = bpy.data.objects.new("Above", cam)
-    bpy.context.scene.collection.objects.link(obj)
-    obj.location = (0, 0, 3.0)
-    bpy.context.scene.camera = obj
-    return 60, 60
+    return SIZE, SIZE
 
 
 def _child(case: str, engine: str, on: bool, out: str) -> None:

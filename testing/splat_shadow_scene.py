@@ -20,12 +20,27 @@ MIDDLE = (slice(25, 35), slice(25, 35))   # under the sheet's middle
 EDGE = (slice(2, 6), slice(2, 6))         # outside its shadow
 
 
-def build(bpy, engine: str, case: str):
+def sheet_over_plane(bpy, camera_z: float = 0.5):
+    """The sheet (returned), the plane, the sun and an orthographic camera at height
+    camera_z looking down (0.5: between them, the sheet behind it)."""
     from testing.engine_scene import add_splats
     from testing.lit_scene import add_light, white_floor
 
     sheet = add_splats(bpy, "Sheet", white_floor(spacing=0.03, size=1.0))
     sheet.location = (0.0, 0.0, 1.0)
+    bpy.ops.mesh.primitive_plane_add(size=4)
+    add_light(bpy, "SUN", location=(0.0, 0.0, 5.0))
+    cam = bpy.data.cameras.new("Camera")
+    cam.type, cam.ortho_scale = "ORTHO", 3.0
+    obj = bpy.data.objects.new("Camera", cam)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location = (0.0, 0.0, camera_z)
+    bpy.context.scene.camera = obj
+    return sheet
+
+
+def build(bpy, engine: str, case: str):
+    sheet = sheet_over_plane(bpy)
     sheet.visible_shadow = case != "no_shadow"
     if case in ("faded", "unfaded"):
         look = sheet.splatline.look
@@ -33,15 +48,7 @@ def build(bpy, engine: str, case: str):
         look.keyframe_insert("opacity", frame=1)
         look.opacity = 0.0
         look.keyframe_insert("opacity", frame=2)
-    bpy.ops.mesh.primitive_plane_add(size=4)
-    add_light(bpy, "SUN", location=(0.0, 0.0, 5.0))
-    cam = bpy.data.cameras.new("Below")
-    cam.type, cam.ortho_scale = "ORTHO", 3.0
-    obj = bpy.data.objects.new("Below", cam)
-    bpy.context.scene.collection.objects.link(obj)
-    obj.location = (0.0, 0.0, 0.5)
     scene = bpy.context.scene
-    scene.camera = obj
     scene.render.engine = "SPLATLINE"
     scene.splatline.render.meshes = "DRAW"
     scene.splatline.render.mesh_engine = engine

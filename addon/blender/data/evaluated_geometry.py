@@ -108,11 +108,19 @@ def install(obj):
 
 
 def _node_group(name, source):
-    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    group = object_info_group(name, source, "ORIGINAL")
     group[GROUP_MARK] = True
+    return group
+
+
+def object_info_group(name, source, space: str):
+    """A Geometry Nodes group whose output is source's evaluated geometry (Object Info in
+    `space`: ORIGINAL keeps its own space, RELATIVE places it where source is)."""
+    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
     group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     info = group.nodes.new("GeometryNodeObjectInfo")
-    info.transform_space = "ORIGINAL"
+    info.name = "Object Info"
+    info.transform_space = space
     info.inputs["Object"].default_value = source
     out = group.nodes.new("NodeGroupOutput")
     out.location = (300, 0)

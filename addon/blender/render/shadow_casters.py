@@ -23,6 +23,7 @@ from __future__ import annotations
 import bpy
 
 from ..data import native
+from ..data.evaluated_geometry import object_info_group
 from ..data.pointcloud import CASTER_MARK
 from ..data.sources import is_splat_object
 
@@ -83,7 +84,7 @@ def _make(source):
         caster = bpy.data.objects.new(name, data)
         made.append((bpy.data.objects, caster))
         caster[CASTER_MARK] = True
-        group = _node_group(name, source)
+        group = object_info_group(name, source, "RELATIVE")  # placed where source is
         made.append((bpy.data.node_groups, group))
         caster.modifiers.new(MODIFIER, "NODES").node_group = group
         return caster
@@ -91,19 +92,6 @@ def _make(source):
         for blocks, block in reversed(made):
             blocks.remove(block)
         raise
-
-
-def _node_group(name, source):
-    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
-    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    info = group.nodes.new("GeometryNodeObjectInfo")
-    info.name = "Object Info"
-    info.transform_space = "RELATIVE"  # the source's world placement, the caster at the origin
-    info.inputs["Object"].default_value = source
-    out = group.nodes.new("NodeGroupOutput")
-    out.location = (300, 0)
-    group.links.new(info.outputs["Geometry"], out.inputs["Geometry"])
-    return group
 
 
 def remove(caster) -> None:

@@ -31,6 +31,12 @@ from testing.webp_support import needs_straight_webp
 PEER = splat_transform()
 needs_peer = pytest.mark.skipif(PEER is None, reason=missing_reason("splat-transform"))
 EPS32 = float(np.finfo(np.float32).eps)
+# LCC2 chunks: SPZ, SOG (WebP images: refused where OpenImageIO premultiplies their alpha,
+# Blender 4.5), and the old protocol's SOG
+LCC2_KINDS = [pytest.param(dict(splat_type=".spz"), id="spz"),
+              pytest.param(dict(splat_type=".sog"), id="sog", marks=needs_straight_webp),
+              pytest.param(dict(old_protocol=True, trailing_commas=True), id="old_protocol_sog",
+                           marks=needs_straight_webp)]
 
 
 def _lods(degree=3):
@@ -89,12 +95,8 @@ def test_lcc_sh_degree_limit_and_shcoef_presence(tmp_path):
         read(path)
 
 
-@pytest.mark.parametrize("kind", [dict(splat_type=".spz"), dict(splat_type=".sog"),
-                                  dict(old_protocol=True, trailing_commas=True)],
-                         ids=["spz", "sog", "old_protocol_sog"])
+@pytest.mark.parametrize("kind", LCC2_KINDS)
 def test_lcc2_reads_each_lod_of_its_chunks(tmp_path, kind):
-    if kind.get("splat_type") != ".spz":
-        needs_straight_webp()
     lods = _lods()
     path = write_lcc2(tmp_path / "s", lods, env=random_splats(7, 3, seed=5), **kind)
     for lod in (0, 1, 2):
@@ -164,12 +166,8 @@ def test_lcc_equals_splat_transforms_decode(tmp_path, sh):
 
 
 @needs_peer
-@pytest.mark.parametrize("kind", [dict(splat_type=".spz"), dict(splat_type=".sog"),
-                                  dict(old_protocol=True, trailing_commas=True)],
-                         ids=["spz", "sog", "old_protocol_sog"])
+@pytest.mark.parametrize("kind", LCC2_KINDS)
 def test_lcc2_equals_splat_transforms_decode(tmp_path, kind):
-    if kind.get("splat_type") != ".spz":
-        needs_straight_webp()
     path = write_lcc2(tmp_path / "s", _lods(), env=random_splats(7, 3, seed=5), **kind)
     _same_as_peer(read(path), _peer_decode(path, tmp_path))
     _same_as_peer(read(path, lod=1), _peer_decode(path, tmp_path, lod=1))

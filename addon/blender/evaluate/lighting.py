@@ -97,10 +97,7 @@ def _colour_bytes(item: RenderItem) -> int:
 def _normals(item: RenderItem, eye) -> tuple:
     """The item's world-space centres and normals, kept while only the lights change (a light
     dragged in the viewport relights without recomputing them)."""
-    h = hashlib.blake2b(digest_size=16)
-    h.update(repr((item.key, item.instance, eye)).encode())
-    h.update(np.asarray(item.world, np.float64).tobytes())
-    signature = h.hexdigest()
+    signature = _digest(item, (item.key, item.instance, eye))
     hit = _NORMALS.get(signature)
     if hit is None:
         hit = _NORMALS[signature] = splat_normals(item.splats, item.world, eye)
@@ -111,8 +108,13 @@ def _normals(item: RenderItem, eye) -> tuple:
 
 
 def _signature(item, lighting, level, holdout) -> str:
+    return _digest(item, (item.key, item.instance, lighting, level, None if holdout is None else holdout.key))
+
+
+def _digest(item, parts) -> str:
+    """A key of `parts` (their repr) and the item's world matrix (its exact bytes)."""
     h = hashlib.blake2b(digest_size=16)
-    h.update(repr((item.key, item.instance, lighting, level, None if holdout is None else holdout.key)).encode())
+    h.update(repr(parts).encode())
     h.update(np.asarray(item.world, np.float64).tobytes())
     return h.hexdigest()
 

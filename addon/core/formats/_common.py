@@ -94,6 +94,14 @@ def check_budget(path, count: int, rest_floats: int, max_splats=None, copies: in
                  + (f", and {budget.human(then)} to process them" if then else ""))
 
 
+def level_index(path, lod, levels: int) -> int:
+    """The level of detail to read: `lod` (None: 0, the finest), refused unless in 0..levels-1."""
+    lod = 0 if lod is None else int(lod)
+    if not 0 <= lod < levels:
+        raise SplatFormatError(path, f"has LODs 0..{levels - 1} (0 the finest); no LOD {lod}")
+    return lod
+
+
 def json_object(path, text, what: str) -> dict:
     """Parse `text` as a JSON object; anything else is the file's one error."""
     try:

@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import SplatFormatError
 from ..sh import C0
 from ..splats import AXES_RFU, SplatSet, sh_coeff_count
-from ._common import check_budget, json_object, normalize_quats_
+from ._common import check_budget, json_object, level_index, normalize_quats_
 from .readfile import OpenedFile, read_whole
 
 MAX_META = 16 << 20       # a meta.lcc is a few KB; more is not one
@@ -49,9 +49,7 @@ SQRT2 = np.sqrt(2.0)
 def read_lcc(path, max_degree: int = 3, max_splats=None, lod=None) -> SplatSet:
     meta = _meta(path)
     levels = meta["levels"]
-    lod = 0 if lod is None else int(lod)
-    if not 0 <= lod < levels:
-        raise SplatFormatError(path, f"has LODs 0..{levels - 1} (0 the finest); no LOD {lod}")
+    lod = level_index(path, lod, levels)
     units = _index(path, levels)[:, lod]
     count = int(units["points"].sum())
     if count != meta["splats"][lod]:

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import SplatFormatError
 from ..splats import AXES_RFU, SplatSet, sh_coeff_count
-from ._common import check_budget, json_object
+from ._common import check_budget, json_object, level_index
 from .readfile import read_whole
 
 MAX_META = 64 << 20
@@ -35,9 +35,7 @@ _TRAILING = re.compile(r'"(?:\\.|[^"\\])*"|,(?=\s*[}\]])')
 def read_lcc2(path, max_degree: int = 3, max_splats=None, lod=None) -> SplatSet:
     meta = _meta(path)
     levels = meta["levels"]
-    lod = 0 if lod is None else int(lod)
-    if not 0 <= lod < levels:
-        raise SplatFormatError(path, f"has LODs 0..{levels - 1} (0 the finest); no LOD {lod}")
+    lod = level_index(path, lod, levels)
     chunks = _chunks(path, meta, lod)
     known = [n for n in chunks.values() if n is not None]
     check_budget(path, sum(known), 3 * sh_coeff_count(max_degree), max_splats)

@@ -8,12 +8,13 @@
 //   rec_pos    centre u, v (pixels, y down), NDC depth of the centre, quad half-size
 //   rec_conic  conic a, b, c (px^-2), opacity after the look and antialiasing
 //   rec_color  colour after SH, grade and output conversion; display mode (0, 1, 2)
-// Per-object table (10 texels an object): columns of cam_from_local with splat scale,
+// Per-object table (11 texels an object): columns of cam_from_local with splat scale,
 // opacity scale, SH degree; eye hi + mode; eye lo + sh_only; the 3x4 colour matrix;
 // orthographic view direction + the object's first splat index; the object's deferred
 // effects (first texel, count, whether they read rest_tex), whose rows follow the objects',
 // and a deferred morph's amount (0: none; the target's data in the morph_* textures); the
-// object's first splat in the data textures (instances of one object share its data). A
+// object's first splat in the data textures (instances of one object share its data) and its
+// Look > Lighting (0: unlit; the light table follows the objects' rows). A
 // deferred morph or displace moves pos_tex's centre (then its source end's, or the stack's
 // input) itself: towards the target's centre, or by the displace's noise layers.
 // Everything is camera-relative: t = cam_from_local * (p - eye), eye split hi + lo.
@@ -185,6 +186,11 @@ void main()
     if (!sl_is_finite(radius) || !sl_is_finite(centre.x) || !sl_is_finite(centre.y)) return;
     vec3 dir = ortho ? ortho_dir.xyz : rel / length(rel);
     vec3 rgb = sh_colour(splat, dir, degree, dc, sh_only, effects.w);
+    float lighting = object_texel(obj, 10).y;
+    if (lighting > 0.0) {  // scales 0.5 + SH, so the grade below applies to the lit colour
+        vec3 normal = sl_normal_camera(cam_from_local, sl_shortest_axis(q, scale));
+        rgb *= sl_light_factor(dc, sl_radiance(sizes.z * OBJECT_TEXELS, t, normal), lighting);
+    }
     rgb = sl_grade_color(rgb, mat3(c0.x, c1.x, c2.x, c0.y, c1.y, c2.y, c0.z, c1.z, c2.z),
                          vec3(c0.w, c1.w, c2.w));
     if (flags.w != 0) rgb = sl_srgb_decode(rgb);

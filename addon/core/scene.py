@@ -41,6 +41,8 @@ class RenderItem:
                    sort by, and the renderer moves them itself from its Deferred.centres,
                    the stack's input); only the viewport asks for them
     rest_positions the effects' input centres, which an `at_rest` deferred effect measures
+    lighting       Look > Lighting left to the renderer to apply to `splats` (0: none, or
+                   applied already); only the viewport asks for it, lighting in its shader
     """
 
     splats: SplatSet
@@ -56,6 +58,7 @@ class RenderItem:
     deferred: tuple = ()
     rest_positions: np.ndarray | None = None
     instance: tuple = ()
+    lighting: float = 0.0
 
     @property
     def effective_sh_degree(self) -> int:

@@ -127,7 +127,7 @@ def _paths(cell: str) -> list[pathlib.Path]:
 def test_stage_table_names_existing_files():
     rows = stage_table()
     assert [r["stage"].split(":")[0] for r in rows] == [
-        "preprocess", "effects", "sort", "composite", "holdout", "film", "shared"]
+        "preprocess", "effects", "lighting", "sort", "composite", "holdout", "film", "shared"]
     for row in rows:
         for column in ("reference", "gl", "viewport", "test"):
             for path in _paths(row[column]):

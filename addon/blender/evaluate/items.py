@@ -201,21 +201,25 @@ def shown(obj_eval) -> bool:
     return bool(getattr(look, "visible", True))
 
 
-def collect_items(depsgraph, defer=None) -> list[RenderItem]:
+def collect_items(depsgraph, defer=None, defer_lighting: bool = False) -> list[RenderItem]:
     """The items of every splat object and instance drawn. A source is evaluated once: its
     instances are its item (the same splats, key, look and effects) at their own world
-    matrices, so a renderer uploads their splats once and sorts them all as one set."""
+    matrices, so a renderer uploads their splats once and sorts them all as one set.
+    defer_lighting: leave Look > Lighting to the renderer (RenderItem.lighting; the viewport)."""
     items, evaluated, lighting = [], {}, None
     for obj, world, path in splat_instances(depsgraph):
         ident = source_ident(obj)
         level = lighting_amount(obj)
+        lit_here = level > 0 and not defer_lighting
         if ident not in evaluated:
             # lit colours come after every effect: none is left to the renderer then
-            evaluated[ident] = item_for(obj, depsgraph, None if level > 0 else defer) if shown(obj) else None
+            evaluated[ident] = item_for(obj, depsgraph, None if lit_here else defer) if shown(obj) else None
         item = evaluated[ident]
         if item is not None:
             item = placed(item, world, path)
-            if level > 0:
+            if level > 0 and defer_lighting:
+                item = replace(item, lighting=level)
+            elif level > 0:
                 lighting = lighting or scene_lighting(depsgraph)
                 item = lit_item(item, lighting, level, depsgraph)
             items.append(item)

@@ -5,7 +5,9 @@ Read per frame from the depsgraph, so moving lights and keyed light properties a
 frame stays a function of the scene at that frame. The last lit result of each item is kept
 by a signature of everything it depends on (the item's key, its world matrix, the lights,
 World, camera, meshes and amount), so the viewport relights only when one of them changes.
-Blender 5.3's own engines are handed the unlit splats (native_handoff uses item_for)."""
+Blender 5.3's own engines are handed the unlit splats (native_handoff uses item_for). The
+viewport lights in its shader instead (items leave `lighting` to it, and it is handed
+lighting_for's lights), without shadows."""
 from __future__ import annotations
 
 import hashlib
@@ -46,6 +48,12 @@ def scene_lighting(depsgraph) -> Lighting:
     eye = None if camera is None else tuple(float(v) for v in camera.matrix_world.translation)
     return Lighting(tuple(light for light in lights if light is not None),
                     world_background(scene.world), eye)
+
+
+def lighting_for(items, depsgraph) -> Lighting | None:
+    """The scene's lighting where some item leaves its Look > Lighting to the renderer (the
+    viewport's items), else None: nothing to read."""
+    return scene_lighting(depsgraph) if any(item.lighting > 0 for item in items) else None
 
 
 def _light(obj, matrix) -> Light | None:

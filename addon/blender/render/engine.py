@@ -33,6 +33,7 @@ from .camera import camera_from_blender
 from ..registration import app_handlers
 from ..evaluate.holdout_geometry import clear_cache as clear_holdout_cache, holdout_for
 from ..evaluate.items import any_antialiased, collect_items
+from ..evaluate.lighting import lighting_for
 from .film import blender_depth, region_camera, render_region, result_rect
 from ..data.world import world_background
 
@@ -241,6 +242,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
     def view_update(self, context, depsgraph):
         # Rendered viewport shading: read the splats when the depsgraph changes, not per redraw.
         self._view_items = _viewport_items(depsgraph)
+        self._view_lighting = lighting_for(self._view_items, depsgraph)
 
     def view_draw(self, context, depsgraph):
         """Rendered viewport shading: the world (or nothing) behind the viewport's splat drawing.
@@ -252,6 +254,7 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
 
         from ...core.colorspace import linear_to_srgb
         from .. import viewport
+        from ..viewport.viewport_renderer import DrawSettings
 
         scene = depsgraph.scene_eval
         framebuffer = gpu.state.active_framebuffer_get()
@@ -260,21 +263,21 @@ class SplatlineRenderEngine(bpy.types.RenderEngine):
         else:
             background = linear_to_srgb(world_background(scene.world))
             framebuffer.clear(color=(*(float(c) for c in background), 1.0))
-        items = getattr(self, "_view_items", None)
-        if items is None:
-            items = self._view_items = _viewport_items(depsgraph)
+        if getattr(self, "_view_items", None) is None:
+            self.view_update(context, depsgraph)
+        items = self._view_items
         region, rv3d = context.region, context.region_data
         if items and region is not None and rv3d is not None:
             gpu.state.depth_test_set("NONE")
             viewport.draw_items(items, rv3d.view_matrix, rv3d.window_matrix,
-                                (region.width, region.height))
+                                (region.width, region.height), DrawSettings(lighting=self._view_lighting))
 
 
 def _viewport_items(depsgraph):
-    """Items for the viewport's drawing path, which applies colour effects itself."""
+    """Items for the viewport's drawing path, which applies colour effects and lighting itself."""
     from ..viewport.effect_rows import on_gpu
 
-    return collect_items(depsgraph, defer=on_gpu)
+    return collect_items(depsgraph, defer=on_gpu, defer_lighting=True)
 
 
 def _write_view(result, view, rect, depth):

@@ -68,7 +68,8 @@ def preprocess_shader():
     for slot, name in enumerate(RECORDS):
         info.fragment_out(slot, "VEC4", name)
     info.vertex_source(_source("viewport_preprocess_vert.glsl"))
-    info.fragment_source(_source("splat_math.glsl", "viewport_effects.glsl", "viewport_preprocess_frag.glsl"))
+    info.fragment_source(_source("splat_math.glsl", "viewport_effects.glsl", "viewport_lighting.glsl",
+                                 "viewport_preprocess_frag.glsl"))
     return _create(info)
 
 

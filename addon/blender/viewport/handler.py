@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import threading
 import traceback
+from dataclasses import replace
 
 import bpy
 import gpu
 
+from ..evaluate.lighting import lighting_for
 from .draw import draw_items
 from .viewport_renderer import DrawSettings, ViewportRenderer
 from .scene_items import SceneItems
@@ -103,8 +105,9 @@ class ViewportDrawer:
             if not items:
                 self.renderer.stats.total = self.renderer.stats.drawn = 0
                 return
+            settings = replace(self.settings, lighting=lighting_for(items, context.evaluated_depsgraph_get()))
             draw_items(items, rv3d.view_matrix, rv3d.window_matrix, (region.width, region.height),
-                       self.settings, displays, self.renderer, occlude=True)
+                       settings, displays, self.renderer, occlude=True)
             if self.renderer.sorting and not bpy.app.timers.is_registered(_redraw_timer):
                 bpy.app.timers.register(_redraw_timer, first_interval=POLL_SECONDS)
         except Exception as exc:  # a draw callback must never raise into Blender's draw loop

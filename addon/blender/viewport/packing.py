@@ -311,13 +311,14 @@ def concatenate(parts: list[np.ndarray], counts: list[int], per_splat: int) -> n
 def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: float,
                 sh_degree: int, mode: int, sh_only: bool, color_matrix: np.ndarray,
                 ortho: bool, first: int, effects: tuple = (0, 0, False, 0.0),
-                data_first: int | None = None) -> np.ndarray:
+                data_first: int | None = None, lighting: float = 0.0) -> np.ndarray:
     """(OBJECT_TEXELS, 4) float32 for one object (layout in viewport_preprocess_frag.glsl).
     first: the object's first splat in the drawn splats, which the order indexes (exact in
     float to 2^24); data_first: its first splat in the data textures (default first):
     instances of one object share its data, each drawn with its own row.
     effects: its deferred colour effects' first table texel, count, whether they read
-    the rest centres' texture (effect_rows.py), and a deferred morph's amount (0: none)."""
+    the rest centres' texture (effect_rows.py), and a deferred morph's amount (0: none).
+    lighting: its Look > Lighting, which the preprocess pass applies (0: unlit)."""
     m = np.asarray(local_to_camera, np.float64)
     eye, forward = camera_in_object(m)
     eye_hi, eye_lo = split_float(eye)
@@ -331,6 +332,7 @@ def object_rows(local_to_camera: np.ndarray, splat_scale: float, opacity_scale: 
     rows[8, 3] = first
     rows[9] = effects
     rows[10, 0] = first if data_first is None else data_first
+    rows[10, 1] = lighting
     return rows
 
 

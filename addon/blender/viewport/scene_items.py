@@ -16,7 +16,7 @@ import bpy
 
 from ..evaluate import items as evaluate
 from ..evaluate.instancers import may_instance_splats
-from ..evaluate.lighting import amount as lighting_amount, lit_item, scene_lighting
+from ..evaluate.lighting import amount as lighting_amount
 from ..data import native
 from ..data.sources import is_splat_object, source_of
 from .effect_rows import on_gpu
@@ -212,25 +212,24 @@ class SceneItems:
         """The items and display options of what this viewport shows: each source read once
         a draw, its instances drawn from its item (they share its arrays)."""
         items, displays = [], []
-        seen, fresh, lighting = set(), {}, None
+        seen, fresh = set(), {}
         shaded = lit_shading(context.space_data)
         for obj_eval, original, depsgraph, world, path in self.visible(context):
             ident = evaluate.source_ident(obj_eval)
             level = lighting_amount(obj_eval) if shaded else 0.0
             if ident not in fresh:
                 seen.add(original.name_full)
-                fresh[ident] = self._item(obj_eval, original, depsgraph, level)
+                fresh[ident] = self._item(obj_eval, original, depsgraph)
             item = evaluate.placed(fresh[ident], world, path)
-            if level > 0:  # relit only when the lights, World, camera or meshes changed
-                lighting = lighting or scene_lighting(depsgraph)
-                item = lit_item(item, lighting, level, depsgraph)
+            if level > 0:  # lit by the preprocess pass: a light moved uploads the table alone
+                item = replace(item, lighting=level)
             items.append(item)
             displays.append(display_for(original))
         for name in set(self.items) - seen:  # deleted or hidden: let their data go
             del self.items[name]
         return items, displays
 
-    def _item(self, obj_eval, original, depsgraph, level=0.0):
+    def _item(self, obj_eval, original, depsgraph):
         """The object's item at its own place, read again only when its version changed."""
         name = original.name_full
         version = self.versions.setdefault(name, 0)
@@ -244,7 +243,7 @@ class SceneItems:
             # the evaluator's own key: with the arrays' identities it decides what
             # the renderer re-uploads (an effect that only fades uploads one texture)
             # colour effects the preprocess pass can apply are left to it
-            item = evaluate.item_for(obj_eval, depsgraph, defer=None if level > 0 else on_gpu)
+            item = evaluate.item_for(obj_eval, depsgraph, defer=on_gpu)
         else:
             item = replace(cached[1], world=world)
         self.items[name] = (version, item, ident)

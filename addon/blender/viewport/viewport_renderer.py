@@ -16,8 +16,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ...core.lighting.shade import Lighting
 from ...core.scene import RenderItem
 from . import packing
+from .light_rows import light_rows
 from .effect_rows import displace_layers, displace_of, effect_rows, morph_of
 from .effect_textures import EffectTextures
 from .pack_cache import (PackCache, data_firsts, data_key, joined, pos_source, positions_key_of, reads_rest,
@@ -50,6 +52,7 @@ class DrawSettings:
     antialiased: bool = False
     capped_extent: bool = False  # quads cut at 3 sigma (faster), not at the 1/255 contour
     point_size: float = 2.0      # half-size in pixels of a point-cloud-mode dot
+    lighting: Lighting | None = None  # the scene's lights, for items with a `lighting` left to draw
 
 
 @dataclass
@@ -329,7 +332,8 @@ class ViewportRenderer:
         self.stats.total = sum(i.splats.count for i in items)
         near, far = const["frame"][2], const["frame"][3]
         self._update_order(items, soa, displays, l2c, projection_matrix, near, far, settings)
-        self._update_objects(items, displays, l2c, bool(const["flags"][0]), slots)
+        lights = light_rows(settings.lighting if any(i.lighting > 0 for i in items) else None, view)
+        self._update_objects(items, displays, l2c, bool(const["flags"][0]), slots, lights)
         self.stats.gpu_bytes = self.gpu.nbytes
         self.stats.frame_bytes = self.gpu.uploaded - uploaded
         return const
@@ -356,9 +360,10 @@ class ViewportRenderer:
         self.layers = seen
         return out
 
-    def _update_objects(self, items, displays, l2c, ortho, slots) -> None:
+    def _update_objects(self, items, displays, l2c, ortho, slots, lights) -> None:
         rows, effects, first = [], [], 0
-        texel = len(items) * packing.OBJECT_TEXELS  # the effects' rows follow the objects'
+        # the light table follows the objects' rows, the effects' rows follow it
+        texel = len(items) * packing.OBJECT_TEXELS + len(lights)
         data_first = data_firsts(items, slots)
         for item, d, m, slot in zip(items, displays, l2c, slots):
             starts = self.effects.field_starts[slot]
@@ -368,11 +373,11 @@ class ViewportRenderer:
                                             _degree(item, d), MODES[d.mode], d.sh_only, item.color_matrix,
                                             ortho, first, (texel, colour, reads_rest(item),
                                                            0.0 if morph is None else morph.amount),
-                                            data_first[slot]))
+                                            data_first[slot], item.lighting))
             effects.append(effect_rows(item.deferred, starts))
             texel += effects[-1].shape[0]
             first += item.splats.count
-        table = np.concatenate(rows + effects)
+        table = np.concatenate(rows + [lights] + effects)
         if self.state.objects_token is not None and np.array_equal(self.state.objects_token, table):
             return  # still camera, same transforms: nothing to upload
         start = time.perf_counter()

@@ -1,58 +1,140 @@
-"""Look > Lighting in the viewport (issue 43): the viewport's items are the engine's lit
-splats, relit only when a light moves, drawn by Blender's GPU as the float64 reference
-renders them; Solid shading shows the capture unlit (real bpy)."""
+"""Look > Lighting in the viewport (issue 43): the preprocess pass lights the splats in its
+shader (shaders/viewport_lighting.glsl), so a light dragged uploads the object table alone.
+Drawn by Blender's GPU, real captures imported by the operator (their axes turned on the
+object, one scaled unevenly, one graded by a deferred effect) under each kind of light
+match the float64 reference drawing the engine's CPU-lit splats; the viewport casts no
+shadows. Solid shading shows the capture unlit (real bpy)."""
 from __future__ import annotations
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
 
 from addon.core import reference
-from testing.engine_scene import add_splats
-from testing.lit_scene import add_light, grey_world, top_camera, white_floor
+from testing.lit_scene import add_light, grey_world
 from testing.viewport_scene import draw_offscreen, overlay_drawn, psnr
 
 
-def _scene(bpy):
-    floor = overlay_drawn(add_splats(bpy, "Floor", white_floor(spacing=0.05, size=1.6)))
-    floor.splatline.look.lighting = 1.0
-    bpy.ops.mesh.primitive_cube_add(size=0.4, location=(0.1, 0.0, 0.5))
-    light = add_light(bpy, "SPOT", location=(0.3, 0.2, 1.5))
-    top_camera(bpy, scale=1.8)
-    grey_world(bpy, bpy.context.scene)
+def _imported(bpy, path):
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(path)) == {"FINISHED"}
+    return overlay_drawn(bpy.context.active_object)
+
+
+def _aim(obj, at) -> None:
+    from mathutils import Vector
+
+    obj.rotation_euler = (Vector(at) - obj.location).to_track_quat("-Z", "Y").to_euler()
+
+
+def _scene(bpy, testdata):
+    """guitar.ply (degree 0) graded by a deferred effect and scaled unevenly, and test64.ply
+    (degree 3) beside it; a spot, a point, a sun and an area light, none casting shadows; a
+    perspective camera; a grey World."""
+    from mathutils import Vector
+
+    guitar = _imported(bpy, testdata / "guitar.ply")
+    guitar.scale = (1.0, 1.4, 0.8)  # normals go by the inverse transpose
+    with bpy.context.temp_override(object=guitar):
+        assert bpy.ops.splatline.effect_add(type="GRADE") == {"FINISHED"}
+    small = _imported(bpy, testdata / "test64.ply")
+    for obj in (guitar, small):
+        obj.splatline.look.lighting = 1.0
     bpy.context.view_layer.update()
-    return floor, light
+    centre = Vector(np.mean([v[:] for v in guitar.bound_box], 0))
+    centre = guitar.matrix_world @ centre
+    small.location = centre + Vector((0.3, -0.2, 0.1))
+    lights = []
+    for kind, offset in (("SPOT", (0.6, -0.8, 1.2)), ("POINT", (-1.0, -0.4, 0.6)),
+                         ("SUN", (0.0, 0.0, 1.0)), ("AREA", (0.2, -1.2, -0.3))):
+        light = add_light(bpy, kind, location=centre + Vector(offset))
+        light.data.use_shadow = False
+        _aim(light, centre + Vector((0.1, 0.0, 0.0)))
+        lights.append(light)
+    lights[2].rotation_euler = (0.5, 0.3, 0.0)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    bpy.context.scene.collection.objects.link(camera)
+    camera.location = centre + Vector((0.4, -2.2, 0.9))
+    _aim(camera, centre)
+    scene = bpy.context.scene
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = 96, 72
+    scene.render.resolution_percentage = 100
+    grey_world(bpy, scene, 0.2)
+    bpy.context.view_layer.update()
+    return guitar, lights
 
 
-def test_viewport_draws_the_engines_lit_splats_and_relights_when_a_light_moves(gpu_ready, bpy_empty):
+def _viewport_against_engine(bpy, viewport):
+    """(the viewport's items, PSNR of its lit draw against the reference drawing the
+    engine's lit splats)."""
     from addon.blender.evaluate.items import collect_items
+    from addon.blender.evaluate.lighting import lighting_for
+    from addon.blender.render.camera import camera_from_blender
+    from addon.blender.viewport import DrawSettings
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    items, displays = viewport.collect(bpy.context)
+    camera = camera_from_blender(bpy.context.scene, bpy.context.scene.camera)
+    settings = DrawSettings(lighting=lighting_for(items, depsgraph))
+    drawn, drew = draw_offscreen(items, camera, displays, settings)
+    drew.close()
+    want = reference.render(collect_items(depsgraph), camera).rgba
+    return items, psnr(drawn, want)
+
+
+def test_the_viewport_lights_in_its_shader_as_the_engine_lights_its_splats(gpu_ready, bpy_empty, testdata):
     from addon.blender.viewport.scene_items import SceneItems
 
     bpy = bpy_empty
-    floor, light = _scene(bpy)
+    guitar, lights = _scene(bpy, testdata)
     viewport = SceneItems()
-    items, _ = viewport.collect(bpy.context)
-    engine = [i for i in collect_items(bpy.context.evaluated_depsgraph_get()) if i.key[0] == floor.name_full]
-    np.testing.assert_array_equal(items[0].splats.sh_dc, engine[0].splats.sh_dc)
-    again, _ = viewport.collect(bpy.context)
-    assert again[0].splats is items[0].splats  # nothing moved: not relit
-    light.location.x -= 0.5
-    bpy.context.view_layer.update()
-    moved, _ = viewport.collect(bpy.context)
-    assert not np.array_equal(moved[0].splats.sh_dc, items[0].splats.sh_dc)
-
-    from addon.blender.render.camera import camera_from_blender
-
-    scene = bpy.context.scene
-    scene.render.resolution_x = scene.render.resolution_y = 64
-    scene.render.resolution_percentage = 100
-    camera = camera_from_blender(scene, scene.camera)
-    drawn, drew = draw_offscreen(moved, camera)
-    drew.close()
-    want = reference.render(moved, camera).rgba
-    value = psnr(drawn, want)
-    print(f"lit floor, viewport (GPU) against the float64 reference: {value:.1f} dB")
+    items, value = _viewport_against_engine(bpy, viewport)
+    print(f"lit captures, viewport (GPU shader) against the float64 reference: {value:.1f} dB")
+    assert [i.lighting for i in items] == [1.0, 1.0]
     assert value >= 60.0
+
+    lights[0].location.x -= 0.5  # a light dragged: the same splats, lit anew on the GPU
+    lights[1].data.energy *= 3.0
+    bpy.context.view_layer.update()
+    moved, value = _viewport_against_engine(bpy, viewport)
+    print(f"after a light moved: {value:.1f} dB")
+    assert all(a.splats is b.splats for a, b in zip(moved, items))
+    assert value >= 60.0
+
+    guitar.splatline.look.lighting = 0.5  # halfway: the colour blended with the capture's
+    bpy.context.view_layer.update()
+    half, value = _viewport_against_engine(bpy, viewport)
+    print(f"Lighting 0.5: {value:.1f} dB")
+    assert sorted(i.lighting for i in half) == [0.5, 1.0]
+    assert value >= 60.0
+
+
+def test_lighting_0_draws_what_an_unlit_viewport_draws(gpu_ready, bpy_empty, testdata):
+    """The light table in the object texture moves the effects' rows; an object at
+    Lighting 0 draws bit for bit as with no lights at all."""
+    from addon.blender.evaluate.lighting import scene_lighting
+    from addon.blender.render.camera import camera_from_blender
+    from addon.blender.viewport import DrawSettings
+    from addon.blender.viewport.scene_items import SceneItems
+
+    bpy = bpy_empty
+    guitar, _ = _scene(bpy, testdata)
+    items, displays = SceneItems().collect(bpy.context)
+    unlit = [replace(i, lighting=0.0) for i in items]
+    assert any(i.deferred for i in unlit)  # the grade is the shader's: its rows move
+    camera = camera_from_blender(bpy.context.scene, bpy.context.scene.camera)
+    lighting = scene_lighting(bpy.context.evaluated_depsgraph_get())
+    assert len(lighting.lights) == 4
+    plain, drew = draw_offscreen(unlit, camera, displays)
+    drew.close()
+    with_lights, drew = draw_offscreen(unlit, camera, displays, DrawSettings(lighting=lighting))
+    drew.close()
+    np.testing.assert_array_equal(plain, with_lights)
+    lit, drew = draw_offscreen([replace(unlit[0], lighting=1.0), unlit[1]], camera, displays,
+                               DrawSettings(lighting=lighting))
+    drew.close()
+    assert not np.array_equal(plain, lit)  # and the table is read: lit, it differs
 
 
 def test_solid_shading_shows_the_capture_unlit(gpu_ready, bpy_empty):

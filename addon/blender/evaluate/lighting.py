@@ -2,12 +2,12 @@
 read into core parameters (core/lighting), and each drawn item lit at its own place.
 
 Read per frame from the depsgraph, so moving lights and keyed light properties animate and a
-frame stays a function of the scene at that frame. The last lit result of each item is kept
-by a signature of everything it depends on (the item's key, its world matrix, the lights,
-World, camera, meshes and amount), so the viewport relights only when one of them changes.
-Blender 5.3's own engines are handed the unlit splats (native_handoff uses item_for). The
-viewport lights in its shader instead (items leave `lighting` to it, and it is handed
-lighting_for's lights), without shadows."""
+frame stays a function of the scene at that frame. The last lit results are kept by a
+signature of everything they depend on (the item's key, its world matrix, the lights, World,
+camera, meshes and amount): a frame rendered again (F12 twice, a still capture's frames under
+still lights) is not relit. Blender 5.3's own engines are handed the unlit splats
+(native_handoff uses item_for). The viewport lights in its shader instead (items leave
+`lighting` to it, and it is handed lighting_for's lights), without shadows."""
 from __future__ import annotations
 
 import hashlib
@@ -25,8 +25,8 @@ from ..data.world import world_background
 from .holdout_geometry import holdout_for
 
 _LIT: OrderedDict = OrderedDict()   # signature -> lit RenderItem, the last few
-_KEEP = 32
-_KEEP_BYTES = 1 << 30   # a light dragged makes a lit copy a step: 192 MB each at 1M, degree 3
+_KEEP = 4
+_KEEP_BYTES = 1 << 29   # a lit copy holds its colours: 192 MB at 1M, degree 3
 _NORMALS: OrderedDict = OrderedDict()   # item, place and camera -> (centres, normals)
 _KEEP_NORMALS = 4   # 48 bytes a splat each
 
@@ -103,8 +103,8 @@ def _colour_bytes(item: RenderItem) -> int:
 
 
 def _normals(item: RenderItem, eye) -> tuple:
-    """The item's world-space centres and normals, kept while only the lights change (a light
-    dragged in the viewport relights without recomputing them)."""
+    """The item's world-space centres and normals, kept while only the lights change (frames
+    of a moving light over a still capture are not recomputed)."""
     signature = _digest(item, (item.key, item.instance, eye))
     hit = _NORMALS.get(signature)
     if hit is None:

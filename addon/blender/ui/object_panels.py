@@ -94,6 +94,9 @@ class SPLATLINE_UL_effects(bpy.types.UIList):
         row.prop(item, "enabled", text="", icon="HIDE_OFF" if item.enabled else "HIDE_ON", emboss=False)
 
 
+VIEWPORT_LIGHTING_HINT = "Viewport: lit without shadows; renders cast them"
+
+
 class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
     bl_label = "Splatline Look"
     bl_idname = "SPLATLINE_PT_look"
@@ -105,6 +108,8 @@ class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
         for name in ("visible", "opacity", "size", "tint", "exposure", "saturation", "hue", "lighting",
                      "max_sh_degree"):
             layout.prop(look, name)
+            if name == "lighting" and look.lighting > 0:  # the viewport's shader casts none
+                layout.label(text=VIEWPORT_LIGHTING_HINT, icon="INFO")
         layout.prop(context.object.splatline, "antialiased")
 
 

@@ -144,3 +144,21 @@ def test_solid_shading_shows_the_capture_unlit(gpu_ready, bpy_empty):
     assert lit_shading(SimpleNamespace(shading=SimpleNamespace(type="RENDERED")))
     assert not lit_shading(SimpleNamespace(shading=SimpleNamespace(type="SOLID")))
     assert not lit_shading(SimpleNamespace(shading=SimpleNamespace(type="WIREFRAME")))
+
+
+def test_the_look_panel_says_the_viewport_casts_no_shadows_once_lit(bpy_empty):
+    from addon.blender.ui.object_panels import SPLATLINE_PT_look, VIEWPORT_LIGHTING_HINT
+    from testing.engine_scene import add_splats, flat_splats
+    from testing.ui_layout import RecordingLayout
+
+    bpy = bpy_empty
+    obj = add_splats(bpy, "s", flat_splats(np.zeros((4, 3)), np.full((4, 3), 0.5)))
+
+    def labels():
+        layout = RecordingLayout()
+        SPLATLINE_PT_look.draw(SimpleNamespace(layout=layout), SimpleNamespace(object=obj))
+        return [text for kind, text, _ in layout.record if kind == "label"]
+
+    assert VIEWPORT_LIGHTING_HINT not in labels()
+    obj.splatline.look.lighting = 0.3
+    assert VIEWPORT_LIGHTING_HINT in labels()

@@ -10,7 +10,7 @@ TABLES = (
     "cli_frame_bench", "colour_profile_bench", "native_engines_bench", "handoff_bench", "holdout_bench",
     "mesh_layer_bench", "film_convert_bench", "render_result_fill_bench", "frame_digests", "dynamic_bench",
     "dynamic_scrub_bench", "framing_bench", "instances_bench", "native_instances_bench", "lighting_bench",
-    "ksplat_bench",
+    "ksplat_bench", "lighting_frame_bench",
 )
 
 

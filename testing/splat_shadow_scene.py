@@ -7,7 +7,8 @@ camera) through Splatline's engine with its mesh layer. Each render runs in a ch
     python -m testing.splat_shadow_scene ENGINE CASE OUT
 ENGINE: EEVEE, CYCLES or WORKBENCH (the Mesh Engine); CASE: shadow, no_shadow (the sheet's
 Visibility > Shadow off), faded (Look > Opacity keyed 1 at frame 1, 0 at frame 2; frame 2
-rendered), unfaded (the same, frame 1 rendered).
+rendered), unfaded (the same, frame 1 rendered); capture, capture_no_shadow: guitar.ply
+imported by the operator over the plane (capture_over_plane), its shadow on and off.
 """
 from __future__ import annotations
 
@@ -39,9 +40,51 @@ def sheet_over_plane(bpy, camera_z: float = 0.5):
     return sheet
 
 
+def capture_over_plane(bpy):
+    """guitar.ply imported by Splatline's operator (its RDF axes turned on the object), turned
+    a further 90 degrees about x to lie along the floor, over a mesh plane; a sun straight
+    down and an orthographic camera between them looking down. Returns the capture."""
+    import math
+
+    import numpy as np
+
+    from testing.lit_scene import add_light
+    from testing.paths import SHARED_TESTDATA
+
+    assert bpy.ops.import_scene.splatline_gaussians(filepath=str(SHARED_TESTDATA / "guitar.ply")) == {"FINISHED"}
+    capture = bpy.context.active_object
+    capture.rotation_euler.x += math.pi / 2
+    bpy.context.view_layer.update()
+    lo, hi = np.percentile(world_centres(capture), [2, 98], axis=0)
+    floor = lo[2] - 0.5 * (hi[2] - lo[2]) - 0.2
+    bpy.ops.mesh.primitive_plane_add(size=4.0 * float(np.max(hi - lo)), location=(*(0.5 * (lo + hi))[:2], floor))
+    add_light(bpy, "SUN", location=(0.0, 0.0, hi[2] + 1.0))
+    cam = bpy.data.cameras.new("Camera")
+    cam.type, cam.ortho_scale = "ORTHO", CAPTURE_VIEW * float(np.max((hi - lo)[:2]))
+    obj = bpy.data.objects.new("Camera", cam)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location = (*(0.5 * (lo + hi))[:2], 0.5 * (floor + lo[2]))
+    bpy.context.scene.camera = obj
+    return capture
+
+
+CAPTURE_VIEW = 1.4   # the camera's width over the capture's longer side
+
+
+def world_centres(obj):
+    """(N, 3) float64 world-space splat centres of a splat object."""
+    import numpy as np
+
+    from addon.blender.data.pointcloud import read_floats
+
+    local = read_floats(obj.data.attributes, "position", 3, len(obj.data.points))
+    m = np.array(obj.matrix_world, np.float64)
+    return local.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+
+
 def build(bpy, engine: str, case: str):
-    sheet = sheet_over_plane(bpy)
-    sheet.visible_shadow = case != "no_shadow"
+    sheet = capture_over_plane(bpy) if case.startswith("capture") else sheet_over_plane(bpy)
+    sheet.visible_shadow = not case.endswith("no_shadow")
     if case in ("faded", "unfaded"):
         look = sheet.splatline.look
         look.opacity = 1.0

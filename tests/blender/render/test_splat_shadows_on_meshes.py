@@ -76,3 +76,50 @@ def test_the_shadow_follows_the_keyed_look(native_bpy, tmp_path):
     assert faded is not None, err[-2000:]
     assert red(shown, MIDDLE) < 0.25 * red(shown, EDGE)
     assert abs(red(faded, MIDDLE) - red(faded, EDGE)) < 0.02 and red(faded, EDGE) > 0.5
+
+
+def _shadow_mask(bpy, size):
+    """(inside, outside) boolean (size, size) masks of the plane in the camera's frame, top
+    row first: inside, pixels under at least 30 opaque splats of the capture (the sun is
+    straight down: a centre shades the pixel below it); outside, pixels with no splat
+    centre at all in their 5x5 neighbourhood."""
+    import numpy as np
+
+    from addon.blender.data.pointcloud import BASE, read_floats
+    from testing.splat_shadow_scene import world_centres
+
+    capture = next(o for o in bpy.context.scene.objects if o.type == "POINTCLOUD")
+    centres = world_centres(capture)
+    opacity = read_floats(capture.data.attributes, BASE, 4, len(centres))[:, 3]
+    cam = bpy.context.scene.camera
+    half = cam.data.ortho_scale / 2
+    x = (centres[:, 0] - cam.location.x + half) / (2 * half) * size
+    y = (cam.location.y + half - centres[:, 1]) / (2 * half) * size  # rows top down
+    inside = np.zeros((size, size))
+    anywhere = np.zeros((size + 4, size + 4))
+    ok = (x >= 0) & (x < size) & (y >= 0) & (y < size)
+    np.add.at(inside, (y[ok & (opacity > 0.5)].astype(int), x[ok & (opacity > 0.5)].astype(int)), 1)
+    np.add.at(anywhere, (y[ok].astype(int) + 2, x[ok].astype(int) + 2), 1)
+    near = sum(anywhere[i:i + size, j:j + size] for i in range(5) for j in range(5))
+    return inside >= 30, near == 0
+
+
+def test_a_real_capture_shadows_the_mesh_plane(native_bpy, tmp_path):
+    """guitar.ply imported by the operator, its axes turned on the object (and turned again
+    to lie down), over a plane from Blender's primitive operator: with a sun straight down
+    its shadow falls where its opaque splats are, and nowhere else."""
+    from testing.splat_shadow_scene import SIZE
+
+    bpy = native_bpy
+    build(bpy, "CYCLES", "capture")
+    inside, outside = _shadow_mask(bpy, SIZE)
+    assert inside.sum() >= 20 and outside.sum() >= 200, (inside.sum(), outside.sum())
+    lit, err = render_in_child("CYCLES", "capture_no_shadow", tmp_path / "lit")
+    assert lit is not None, err[-2000:]
+    shaded, err = render_in_child("CYCLES", "capture", tmp_path / "shaded")
+    assert shaded is not None, err[-2000:]
+    print(f"guitar.ply's shadow on the plane: under its opaque splats {red(lit, inside):.3f} with the "
+          f"shadow off, {red(shaded, inside):.3f} on; away from it {red(lit, outside):.3f}, {red(shaded, outside):.3f}")
+    assert abs(red(lit, inside) - red(lit, outside)) < 0.03  # no shadow drawn when off
+    assert abs(red(shaded, outside) - red(lit, outside)) < 0.02
+    assert red(shaded, inside) < 0.5 * red(lit, inside)

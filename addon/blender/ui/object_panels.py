@@ -9,7 +9,7 @@ from __future__ import annotations
 import bpy
 
 from ..data.sources import is_splat_object
-from ..data import sequence_source
+from ..data import native, sequence_source
 from ..props.effect import FIELDS, TYPES
 
 
@@ -94,7 +94,14 @@ class SPLATLINE_UL_effects(bpy.types.UIList):
         row.prop(item, "enabled", text="", icon="HIDE_OFF" if item.enabled else "HIDE_ON", emboss=False)
 
 
+# Splatline's viewport lights in its shader, without shadows; on 5.3 Blender draws its own
+# splats (unlit) in Solid and Material Preview, and Splatline's drawing is Rendered shading's
 VIEWPORT_LIGHTING_HINT = "Viewport: lit without shadows; renders cast them"
+NATIVE_LIGHTING_HINT = "Lit by the Splatline engine only; its viewport casts no shadows"
+
+
+def lighting_hint(obj) -> str:
+    return NATIVE_LIGHTING_HINT if native.drawn_natively(obj.data) else VIEWPORT_LIGHTING_HINT
 
 
 class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
@@ -108,8 +115,8 @@ class SPLATLINE_PT_look(_ObjectPanel, bpy.types.Panel):
         for name in ("visible", "opacity", "size", "tint", "exposure", "saturation", "hue", "lighting",
                      "max_sh_degree"):
             layout.prop(look, name)
-            if name == "lighting" and look.lighting > 0:  # the viewport's shader casts none
-                layout.label(text=VIEWPORT_LIGHTING_HINT, icon="INFO")
+            if name == "lighting" and look.lighting > 0:
+                layout.label(text=lighting_hint(context.object), icon="INFO")
         layout.prop(context.object.splatline, "antialiased")
 
 

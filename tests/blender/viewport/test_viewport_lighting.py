@@ -146,8 +146,11 @@ def test_solid_shading_shows_the_capture_unlit(gpu_ready, bpy_empty):
     assert not lit_shading(SimpleNamespace(shading=SimpleNamespace(type="WIREFRAME")))
 
 
-def test_the_look_panel_says_the_viewport_casts_no_shadows_once_lit(bpy_empty):
-    from addon.blender.ui.object_panels import SPLATLINE_PT_look, VIEWPORT_LIGHTING_HINT
+def test_the_look_panel_says_where_the_capture_is_lit_once_lit(bpy_empty):
+    """Splatline's viewport lights without shadows; a splat object Blender draws itself (5.3)
+    shows lit in Splatline's engine alone (F12, Rendered shading with it)."""
+    from addon.blender.data import native
+    from addon.blender.ui.object_panels import NATIVE_LIGHTING_HINT, SPLATLINE_PT_look, VIEWPORT_LIGHTING_HINT
     from testing.engine_scene import add_splats, flat_splats
     from testing.ui_layout import RecordingLayout
 
@@ -159,6 +162,12 @@ def test_the_look_panel_says_the_viewport_casts_no_shadows_once_lit(bpy_empty):
         SPLATLINE_PT_look.draw(SimpleNamespace(layout=layout), SimpleNamespace(object=obj))
         return [text for kind, text, _ in layout.record if kind == "label"]
 
-    assert VIEWPORT_LIGHTING_HINT not in labels()
+    hints = {VIEWPORT_LIGHTING_HINT, NATIVE_LIGHTING_HINT}
+    assert not hints & set(labels())
     obj.splatline.look.lighting = 0.3
-    assert VIEWPORT_LIGHTING_HINT in labels()
+    want = NATIVE_LIGHTING_HINT if native.has_native_splats() else VIEWPORT_LIGHTING_HINT
+    assert hints & set(labels()) == {want}
+    assert max(map(len, hints)) <= 64
+    if native.has_native_splats():
+        overlay_drawn(obj)  # set back to points: Splatline's overlay draws and lights it
+        assert hints & set(labels()) == {VIEWPORT_LIGHTING_HINT}

@@ -135,13 +135,24 @@ def remove(obj) -> None:
         return
     other, group = companion(obj), modifier.node_group
     obj.modifiers.remove(modifier)
-    if group.users == 0:
-        bpy.data.node_groups.remove(group)
+    drop_unused(group)
     if other is not None:
-        data = other.data
-        bpy.data.objects.remove(other)
-        if data is not None and data.users == 0:
-            bpy.data.pointclouds.remove(data)
+        drop_object(other)
+
+
+def drop_object(obj) -> None:
+    """Remove obj, and its point cloud once nothing else uses it."""
+    data = obj.data
+    bpy.data.objects.remove(obj)
+    drop_unused(data)
+
+
+def drop_unused(block) -> None:
+    """Remove a node group or point cloud that nothing uses any more (None: nothing)."""
+    if block is None or block.users:
+        return
+    blocks = bpy.data.node_groups if isinstance(block, bpy.types.NodeTree) else bpy.data.pointclouds
+    blocks.remove(block)
 
 
 def _same(a, b) -> bool:

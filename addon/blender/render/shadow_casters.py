@@ -23,6 +23,7 @@ from __future__ import annotations
 import bpy
 
 from ..data import native
+from ..data import evaluated_geometry
 from ..data.evaluated_geometry import object_info_group
 from ..data.pointcloud import CASTER_MARK
 from ..data.sources import is_splat_object
@@ -96,11 +97,6 @@ def _make(source):
 
 def remove(caster) -> None:
     """A caster, its node group and its data."""
-    modifier = caster.modifiers.get(MODIFIER)
-    group = getattr(modifier, "node_group", None)
-    data = caster.data
-    bpy.data.objects.remove(caster)
-    if group is not None and group.users == 0:
-        bpy.data.node_groups.remove(group)
-    if data is not None and data.users == 0:
-        bpy.data.pointclouds.remove(data)
+    group = getattr(caster.modifiers.get(MODIFIER), "node_group", None)
+    evaluated_geometry.drop_object(caster)
+    evaluated_geometry.drop_unused(group)

@@ -16,9 +16,17 @@ vec4 fetch(sampler2D tex, int texel)
     return texelFetch(tex, ivec2(texel % sizes.x, texel / sizes.x), 0);
 }
 
+// texel `texel` of the object table (objects, light table, effects), in rows of its
+// texture's width: one row while it fits (gpu_draw.SplatGPU.set_objects)
+vec4 table_texel(int texel)
+{
+    int width = textureSize(object_tex, 0).x;
+    return texelFetch(object_tex, ivec2(texel % width, texel / width), 0);
+}
+
 vec4 effect_texel(int row, int k)
 {
-    return texelFetch(object_tex, ivec2(row + k, 0), 0);
+    return table_texel(row + k);
 }
 
 // common.field_values: local = rows of gizmo-from-object applied term by term; noise:

@@ -4,7 +4,7 @@
 // not cast here: the viewport lights without them (the panel says so).
 // Everything is in the view's camera space: the light table (light_rows.py) holds the
 // lights, the World's colour and the scene camera there, and a splat's camera-space centre
-// is the preprocess pass's t. Needs splat_math.glsl first.
+// is the preprocess pass's t. Needs splat_math.glsl and viewport_effects.glsl (table_texel) first.
 //
 // Light table, `first` its first texel of object_tex:
 //   head   ambient rgb (World colour x strength), light count
@@ -18,7 +18,7 @@ const float SL_LINEAR_KNEE = 0.0031308;
 
 vec4 light_texel(int first, int k)
 {
-    return texelFetch(object_tex, ivec2(first + k, 0), 0);
+    return table_texel(first + k);
 }
 
 // normals.shortest_axes: the rotation's column along the smallest scale (the first of equals)

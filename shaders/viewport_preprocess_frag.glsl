@@ -8,7 +8,7 @@
 //   rec_pos    centre u, v (pixels, y down), NDC depth of the centre, quad half-size
 //   rec_conic  conic a, b, c (px^-2), opacity after the look and antialiasing
 //   rec_color  colour after SH, grade and output conversion; display mode (0, 1, 2)
-// Per-object table (11 texels an object): columns of cam_from_local with splat scale,
+// Per-object table (11 texels an object; table_texel reads it): columns of cam_from_local with splat scale,
 // opacity scale, SH degree; eye hi + mode; eye lo + sh_only; the 3x4 colour matrix;
 // orthographic view direction + the object's first splat index; the object's deferred
 // effects (first texel, count, whether they read rest_tex), whose rows follow the objects',
@@ -23,7 +23,7 @@ const int OBJECT_TEXELS = 11;
 
 vec4 object_texel(int object, int k)
 {
-    return texelFetch(object_tex, ivec2(object * OBJECT_TEXELS + k, 0), 0);
+    return table_texel(object * OBJECT_TEXELS + k);
 }
 
 // The object whose splats include `splat`: the last one starting at or before it.

@@ -215,7 +215,15 @@ class SplatGPU:
         self.order_count = int(order.size)
 
     def set_objects(self, table: np.ndarray, count: int) -> None:
-        self._upload("objects", table, "RGBA32F", table.shape[0])
+        """The object table ((texels, 4)): one row while it fits in WIDTH texels (a scrubbed
+        frame uploads it alone), else whole rows of WIDTH, as the data textures: one row
+        would cap it at the texture size (1,489 objects and instances)."""
+        if table.shape[0] <= WIDTH:
+            self._upload("objects", table, "RGBA32F", table.shape[0])
+        else:
+            flat = np.zeros((padded(table.shape[0]), 4), np.float32)
+            flat[:table.shape[0]] = table
+            self._upload("objects", flat, "RGBA32F")
         self.object_count = count
 
     @property

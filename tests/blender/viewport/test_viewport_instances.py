@@ -84,3 +84,24 @@ def test_scene_items_collects_a_collection_instance(gpu_ready, bpy_empty, testda
     assert [i.instance for i in items] == [(), ("Instance", 0)] and len(displays) == 2
     assert items[1].splats is items[0].splats
     np.testing.assert_allclose(items[1].world[:3, 3] - items[0].world[:3, 3], (0.3, 0.0, 0.0), atol=1e-6)
+
+
+def test_more_instances_than_a_texture_row_holds(gpu_ready):
+    """2,000 instances (a Geometry Nodes scatter) need 22,000 texels of object table: more
+    than the 16,384 a texture row may hold on the smallest GPU Blender supports. The table
+    wraps into rows as the data textures do, and the grid draws as the reference draws it."""
+    from addon.core.camera import look_at, simple_camera
+    from testing.viewport_scene import blob
+
+    splats = blob(12, 1, seed=5, centre=(0, 0, 0), spread=0.05)
+    item = RenderItem(splats, key=("blob", 1))
+    n, side = 2_000, 50
+    grid = [_placed(item, ((k % side) * 0.2 - 4.9, (k // side) * 0.2 - 3.9, 0.0), 1.0, k) for k in range(n)]
+    camera = simple_camera(96, 80, 50.0, look_at((0.0, -9.0, 9.0), (0.0, 0.0, 0.0)), near=0.1, far=100.0)
+    got, drew = draw_offscreen(grid, camera)
+    assert drew.gpu.object_count == n
+    drew.close()
+    want = reference.render([merged_item(grid)], camera).rgba
+    covered = (want[..., 3] > 0.01).mean()
+    print(f"{n} instances: {psnr(got, want):.1f} dB against the reference, {covered:.0%} of pixels covered")
+    assert covered > 0.2 and psnr(got, want) >= 60.0

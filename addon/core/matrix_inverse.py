@@ -55,3 +55,32 @@ def inverse_or_pinv(m) -> np.ndarray:
         return inverse4(a)
     except np.linalg.LinAlgError:
         return np.linalg.pinv(a)
+
+
+FLAT = 1e-6  # the least scale a transform keeps along any axis, relative to its largest
+
+
+def thickened(m) -> np.ndarray:
+    """The 4x4 transform m with no axis scaled below FLAT times its largest scale. An object
+    scaled to 0 along an axis (a keyed grow's first frame) is a plane: the renderers work in
+    its local frame, through the inverse, so it keeps a millionth of a thickness there and
+    draws as that plane (a millionth of its size from where it is). m itself where it is
+    thick enough, holds no scale at all (a point: nothing to draw) or is not finite. The
+    SVD goes to LAPACK, but only for such a transform."""
+    a = np.asarray(m, np.float64)
+    linear = a[:3, :3]
+    big = float(np.abs(linear).max()) if np.isfinite(linear).all() else 0.0
+    # |det| = s0 s1 s2 <= s0^2 s2 and s0 <= 3 big: at 27 FLAT big^3, s2 >= FLAT s0 already
+    if big == 0.0 or abs(_det3(linear)) >= 27.0 * FLAT * big ** 3:
+        return a
+    u, s, vt = np.linalg.svd(linear)
+    if s[2] >= FLAT * s[0]:
+        return a
+    out = a.copy()
+    out[:3, :3] = (u * np.maximum(s, FLAT * s[0])) @ vt
+    return out
+
+
+def _det3(m) -> float:
+    (a, b, c), (d, e, f), (g, h, i) = np.asarray(m, np.float64).tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)

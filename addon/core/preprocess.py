@@ -35,7 +35,7 @@ import numpy as np
 
 from . import dof, equirect
 from .camera import Camera
-from .matrix_inverse import inverse_or_pinv
+from .matrix_inverse import inverse_or_pinv, thickened
 from .quaternion import to_matrix as quat_to_matrix
 from .render_constants import ALPHA_MIN, J_CLAMP_MARGIN, LOW_PASS
 from .scene import RenderItem
@@ -64,8 +64,9 @@ class Projected:
 
 
 def object_to_camera(item: RenderItem, camera: Camera) -> np.ndarray:
-    """(4, 4) float64 matrix from the item's local frame to Blender camera space."""
-    return np.asarray(camera.world_to_camera, np.float64) @ np.asarray(item.world, np.float64)
+    """(4, 4) float64 matrix from the item's local frame to Blender camera space (a
+    flattened object's thickened: matrix_inverse.thickened)."""
+    return np.asarray(camera.world_to_camera, np.float64) @ thickened(item.world)
 
 
 def local_view_dirs(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> np.ndarray:

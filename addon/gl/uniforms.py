@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core import equirect
 from ..core.camera import Camera
-from ..core.preprocess import camera_in_object, j_clamp_bounds, split_float
+from ..core.preprocess import camera_in_object, j_clamp_bounds, object_to_camera, split_float
 from ..core.scene import RenderItem
 
 
@@ -63,8 +63,7 @@ def depth_origin(item: RenderItem, camera: Camera) -> float:
 
 def item_uniforms(item: RenderItem, camera: Camera, anchor: float = 0.0) -> dict:
     """anchor: a depth subtracted (in float64) from every sort depth of the frame."""
-    world = np.asarray(item.world, np.float64)
-    o2c = np.asarray(camera.world_to_camera, np.float64) @ world
+    o2c = object_to_camera(item, camera)
     cam_from_local = o2c[:3, :3]
     eye, fwd = camera_in_object(o2c)
     hi, lo = (tuple(float(v) for v in part) for part in split_float(eye))

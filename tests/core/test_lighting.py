@@ -31,6 +31,39 @@ def test_normals_face_the_eye_and_follow_the_world_matrix():
     assert (np.einsum("ij,ij->i", normals, eye - points) >= 0).all()
 
 
+def test_world_normals_are_the_inverse_transposes_and_defined_for_a_flattened_object():
+    """Pinned to the inverse transpose for invertible matrices (a mirror among them); an
+    object scaled to 0 along an axis (a keyed grow's first frame) has its plane's normal,
+    one shrunk to a line or a point none, and is lit (by the World alone) without error."""
+    from addon.core.lighting.normals import world_normals
+
+    rng = np.random.default_rng(3)
+    axes = shortest_axes(random_splats(300, degree=0, seed=3).rotations, rng.uniform(0.1, 1, (300, 3)))
+    for _ in range(20):
+        world = np.eye(4)
+        world[:3, :3] = rng.normal(size=(3, 3))
+        want = axes @ np.linalg.inv(world[:3, :3])
+        want /= np.linalg.norm(want, axis=1, keepdims=True)
+        np.testing.assert_allclose(world_normals(axes, world), want, atol=1e-9)
+    turned = np.eye(4)
+    turned[:3, :3] = to_matrix(np.array([[0.9, 0.3, -0.2, 0.1]]))[0][0]
+    flat = turned @ np.diag([1.0, 0.0, 1.0, 1.0])
+    normals = world_normals(axes, flat)
+    plane = turned[:3, 1]
+    tilted = np.abs(normals @ plane) > 1e-9
+    np.testing.assert_allclose(np.abs(normals[tilted] @ plane), 1.0, atol=1e-12)
+    for world in (flat, np.diag([0.0, 0.0, 1.0, 1.0]), np.diag([0.0, 0.0, 0.0, 1.0])):
+        splats = random_splats(300, degree=1, seed=4)
+        light = Light("SPOT", (0.2, 0.1, 2.0), (0.0, 0.0, -1.0), power=100.0)
+        points, normals = splat_normals(splats, world, (0.0, 0.0, 5.0))
+        visibility = [shadows.light_visibility(points, light, None, splats, world)]
+        lit = lit_splats(splats, world, Lighting((light,), (0.1,) * 3, (0.0, 0.0, 5.0)), 1.0, visibility,
+                         points, normals)
+        assert np.isfinite(lit.sh_dc).all() and np.isfinite(lit.sh_rest).all()
+        assert np.isfinite(visibility[0]).all() and (visibility[0] >= 0).all()
+    assert not world_normals(axes, np.diag([0.0, 0.0, 1.0, 1.0])).any()
+
+
 def test_colour_factor_scales_the_sh_colour_in_every_direction():
     s = random_splats(300, degree=3, seed=3)
     k = np.random.default_rng(0).uniform(0, 3, size=(300, 3))

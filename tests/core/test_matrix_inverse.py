@@ -52,3 +52,29 @@ def test_inverse_or_pinv_of_a_3x3_is_its_inverse_or_pseudo_inverse():
     np.testing.assert_allclose(inverse_or_pinv(a), np.linalg.inv(a), rtol=1e-12, atol=1e-12)
     flat = np.diag([2.0, 0.0, 4.0])  # an object scaled to 0 on an axis
     np.testing.assert_allclose(inverse_or_pinv(flat), np.linalg.pinv(flat), atol=1e-15)
+
+
+def test_thickened_keeps_every_transform_but_a_flattened_one():
+    """Invertible transforms come back bit for bit; one scaled to 0 along an axis keeps FLAT
+    of its largest scale there, and moves no point by more than that much of its size."""
+    from addon.core.matrix_inverse import FLAT, thickened
+
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        m = np.eye(4)
+        m[:3, :4] = rng.normal(size=(3, 4))
+        assert np.array_equal(thickened(m), m)
+    for scale in ((1.0, 0.0, 2.0), (0.0, 0.0, 3.0), (1.0, 1.0, 1e-9)):
+        m = np.eye(4)
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        m[:3, :3] = q @ np.diag(scale)
+        m[:3, 3] = (1.0, -2.0, 0.5)
+        out = thickened(m)
+        s = np.linalg.svd(out[:3, :3], compute_uv=False)
+        assert s[2] >= FLAT * s[0] * (1 - 1e-9)
+        p = rng.normal(size=(100, 3))
+        moved = np.linalg.norm(p @ (out[:3, :3] - m[:3, :3]).T, axis=1)
+        assert (moved <= 1.01 * FLAT * s[0] * np.linalg.norm(p, axis=1)).all()
+        np.testing.assert_array_equal(out[:3, 3], m[:3, 3])
+    for m in (np.zeros((4, 4)), np.full((4, 4), np.nan)):
+        assert np.array_equal(thickened(m), m, equal_nan=True)  # nothing to keep: as it was

@@ -61,7 +61,12 @@ def _light(obj, matrix) -> Light | None:
     if data.type not in ("POINT", "SPOT", "SUN", "AREA"):
         return None
     shines = -matrix[:3, 2]
-    shines = shines / max(np.linalg.norm(shines), 1e-12)
+    length = float(np.linalg.norm(shines))
+    if not length > 1e-12:  # scaled to 0 along its axis: a point light needs no direction,
+        if data.type != "POINT":  # the others have none to shine in
+            return None
+        shines, length = np.array([0.0, 0.0, -1.0]), 1.0
+    shines = shines / length
     colour = tuple(float(c) for c in data.color)
     common = dict(position=tuple(matrix[:3, 3]), direction=tuple(shines), color=colour,
                   shadow=bool(getattr(data, "use_shadow", True)), name=obj.name_full)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ...core.lighting.shade import Lighting
+from ...core.matrix_inverse import thickened
 from ...core.scene import RenderItem
 from . import packing
 from .light_rows import light_rows
@@ -323,7 +324,7 @@ class ViewportRenderer:
                                capped_extent=settings.capped_extent,
                                linear_output=settings.linear_output, point_size=settings.point_size)
         view = np.asarray(view_matrix, np.float64)
-        l2c = [view @ np.asarray(i.world, np.float64) for i in items]
+        l2c = [view @ thickened(i.world) for i in items]
         data, slots = shared_data(items)
         # what sorting needs is per instance (its order's indices); the rest is per data
         self.state.layout = tuple((i.key[0] if i.key else None, i.instance, i.splats.count) for i in items)

@@ -34,9 +34,15 @@ def shortest_axes(rotations: np.ndarray, scales: np.ndarray) -> np.ndarray:
 
 def world_normals(axes: np.ndarray, world: np.ndarray) -> np.ndarray:
     """Object-space normals to unit world-space ones: by the inverse transpose of the world
-    matrix's 3x3 (a non-uniform scale tilts normals the other way from the surface)."""
-    linear = np.asarray(world, np.float64)[:3, :3]
-    normal_matrix = np.linalg.inv(linear).T
+    matrix's 3x3 (a non-uniform scale tilts normals the other way from the surface), as its
+    cofactor matrix times the determinant's sign, which is that up to a positive factor and
+    defined for a flattened object too (scaled to 0 along an axis, as a keyed grow starts):
+    its normals are then its plane's, and an object shrunk to a line or a point has none
+    (zero normals: lit by the World alone). The viewport's shader computes the same."""
+    m = np.asarray(world, np.float64)[:3, :3]
+    c0, c1, c2 = m[:, 0], m[:, 1], m[:, 2]
+    cofactor = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=1)
+    normal_matrix = cofactor if np.dot(c0, np.cross(c1, c2)) >= 0 else -cofactor
     n = axes @ normal_matrix.T
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return n / np.where(length > 0, length, 1.0)

@@ -195,13 +195,25 @@ def _occluding(splats, world, cell, depth_bias):
     """(each splat's opacity share of a cell, at most 0.999; the cell; the depth bias)."""
     scales = np.sort(np.asarray(splats.scales, np.float64), axis=1)
     if world is not None:
-        scales = scales * float(np.cbrt(abs(np.linalg.det(np.asarray(world, np.float64)[:3, :3]))))
+        scales = scales * _size_of(world)
     if cell is None:
         cell = 4.0 * float(np.median(scales[:, 2])) if len(scales) else 1.0
+    if not cell > 0.0:  # splats of no size (or an object shrunk to a point) shade nothing
+        return np.zeros(len(scales)), 1.0, 2.0 if depth_bias is None else depth_bias
     depth_bias = 2.0 * cell if depth_bias is None else depth_bias
     alpha = np.asarray(splats.opacities, np.float64) * np.minimum(
         1.0, 2 * np.pi * scales[:, 1] * scales[:, 2] / (cell * cell))
     return np.minimum(alpha, 0.999), cell, depth_bias
+
+
+def _size_of(world) -> float:
+    """How much the world matrix scales a splat: the cube root of its volume change, or, for
+    a flattened object (scaled to 0 along an axis), the mean of the sizes it keeps."""
+    sizes = np.linalg.svd(np.asarray(world, np.float64)[:3, :3], compute_uv=False)
+    kept = sizes[sizes > 1e-12 * sizes[0]] if sizes[0] > 0 else sizes[:0]
+    if len(kept) == 3:
+        return float(np.cbrt(np.prod(kept)))
+    return float(kept.mean()) if len(kept) else 0.0
 
 
 def _light_cells(pts, light: Light, cell: float, views=None):

@@ -73,3 +73,23 @@ def test_gl_renderer_matches_the_reference_at_lighting_one_with_a_shadow(bpy_emp
     print(f"lit, shadowed floor: GL against the float64 reference {value:.1f} dB")
     assert value >= 60.0
     assert ref[..., 0].min() < 0.1 < ref[..., 0].max()  # the shadow is in the frame
+
+
+def test_a_flattened_floor_and_a_flattened_light_render(bpy_empty, tmp_path):
+    """A grow keyed from scale 0 starts on a flattened object: lit, its normals are its
+    plane's (the world matrix has no inverse), and a light scaled to 0 along its axis has no
+    direction and lights nothing; the frame renders, finite, as the reference does."""
+    bpy = bpy_empty
+    floor, sun, scene = _scene(bpy, spacing=0.05)
+    floor.scale = (1.0, 1.0, 0.0)   # flat along its normal: the splats' own thin axis
+    spot = add_light(bpy, "SPOT", location=(0.0, -1.0, 1.0))
+    spot.scale = (1.0, 1.0, 0.0)
+    frames = {}
+    for renderer in ("OFFSCREEN", "REFERENCE"):
+        scene.splatline.render.renderer = renderer
+        set_output(scene, "EXR", tmp_path / renderer)
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        frames[renderer] = read_exr_parts((tmp_path / renderer).with_suffix(".exr"))["ViewLayer.Combined"]
+    assert np.isfinite(frames["REFERENCE"]).all() and np.isfinite(frames["OFFSCREEN"]).all()
+    assert frames["REFERENCE"][..., 0].max() > 0.3  # lit by the sun: its normals are +-z
+    assert psnr(np.clip(frames["OFFSCREEN"], 0, 1), np.clip(frames["REFERENCE"], 0, 1)) >= 60.0

@@ -66,9 +66,9 @@ def _scene(bpy, testdata):
     return guitar, lights
 
 
-def _viewport_against_engine(bpy, viewport):
+def _viewport_against_engine(bpy, viewport, shown=None):
     """(the viewport's items, PSNR of its lit draw against the reference drawing the
-    engine's lit splats)."""
+    engine's lit splats); shown: an object that must cover some of the frame."""
     from addon.blender.evaluate.items import collect_items
     from addon.blender.evaluate.lighting import lighting_for
     from addon.blender.render.camera import camera_from_blender
@@ -85,7 +85,11 @@ def _viewport_against_engine(bpy, viewport):
     settings = DrawSettings(lighting=lighting_for(items, depsgraph))
     drawn, drew = draw_offscreen(items, camera, displays, settings)
     drew.close()
-    want = reference.render(collect_items(depsgraph), camera).rgba
+    engine_items = collect_items(depsgraph)
+    want = reference.render(engine_items, camera).rgba
+    if shown is not None:
+        alone = [i for i in engine_items if i.key[0] == shown.name_full]
+        assert (reference.render(alone, camera).rgba[..., 3] > 0.1).mean() > 0.02
     return items, psnr(drawn, want)
 
 
@@ -183,3 +187,19 @@ def test_the_look_panel_says_where_the_capture_is_lit_once_lit(bpy_empty):
     if native.has_native_splats():
         overlay_drawn(obj)  # set back to points: Splatline's overlay draws and lights it
         assert hints & set(labels()) == {VIEWPORT_LIGHTING_HINT}
+
+
+def test_a_flattened_lit_capture_draws_as_the_reference_draws_it(gpu_ready, bpy_empty, testdata):
+    """guitar.ply scaled to 0 along one axis (a keyed grow's first frame): its world matrix
+    has no inverse; the viewport draws and lights it (its plane's normals) as the float64
+    reference draws the engine's lit splats."""
+    from addon.blender.viewport.scene_items import SceneItems
+
+    bpy = bpy_empty
+    guitar, _ = _scene(bpy, testdata)
+    guitar.scale = (1.0, 1.0, 0.0)  # its local z is the world's y: a cut-out facing the camera
+    bpy.context.view_layer.update()
+    items, value = _viewport_against_engine(bpy, SceneItems(), shown=guitar)
+    print(f"flattened guitar, lit: viewport against the reference {value:.1f} dB")
+    assert abs(np.linalg.det(items[0].world[:3, :3])) == 0.0
+    assert value >= 60.0

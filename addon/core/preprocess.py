@@ -202,7 +202,7 @@ def _colours(item: RenderItem, camera: Camera, pos_local: np.ndarray) -> np.ndar
 def camera_in_object(local_to_camera: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(eye, forward): the camera centre and its unit viewing direction (-z) in an object's
     local frame, from the object-to-camera matrix (float64). pinv: an object shrunk to a
-    point or a line gives junk the renderers cull (object_to_camera thickens a plane). `forward` is what orthographic views use as every
+    point gives junk the renderers cull (object_to_camera thickens a plane or a line). `forward` is what orthographic views use as every
     splat's SH direction."""
     m = np.asarray(local_to_camera, np.float64)
     with np.errstate(all="ignore"):

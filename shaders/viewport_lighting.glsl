@@ -91,11 +91,12 @@ vec3 sl_srgb_encode(vec3 x)  // x >= 0
     return mix(x * 12.92, high, greaterThan(x, vec3(SL_LINEAR_KNEE)));
 }
 
-// shade.colour_factor: k = sRGB(albedo x radiance) / c per channel, blended with 1
+// shade.colour_factor: k = sRGB(albedo x radiance) / c per channel, blended with 1; a
+// negative light darkens to black, no further
 vec3 sl_light_factor(vec3 dc, vec3 radiance, float amount)
 {
     vec3 c = 0.5 + SL_SH_C0 * dc;
-    vec3 lit = sl_srgb_encode(sl_srgb_decode(max(c, vec3(0.0))) * radiance);
+    vec3 lit = sl_srgb_encode(sl_srgb_decode(max(c, vec3(0.0))) * max(radiance, vec3(0.0)));
     vec3 k = mix(vec3(1.0), lit / max(c, vec3(SL_DARK)), greaterThan(c, vec3(SL_DARK)));
     return 1.0 + min(amount, 1.0) * (k - 1.0);
 }

@@ -75,6 +75,33 @@ def test_colour_factor_scales_the_sh_colour_in_every_direction():
     np.testing.assert_allclose(after, k * before, atol=2e-5)
 
 
+def test_a_negative_light_darkens_to_black_in_every_direction_and_no_further():
+    """Blender allows negative light energy. Lit by more negative light than the World gives,
+    a splat is black from every side: its colour factor is 0, not negative (a negative factor
+    would turn the SH's lobes below 0.5 bright); a weaker one darkens it."""
+    from addon.core.lighting.shade import colour_factor, radiance_factor
+
+    s = random_splats(300, degree=3, seed=5)
+    s.sh_dc[:] = np.abs(s.sh_dc)  # colours above 0.5: lit, well away from the black clamp
+    world = np.eye(4)
+    dirs = np.random.default_rng(2).normal(size=(300, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    before = np.maximum(sh_to_rgb(s.sh_dc, s.sh_rest, dirs, 3), 0.0)
+    points, normals = splat_normals(s, world, None)
+    for power, dark in ((-5000.0, True), (-20.0, False)):
+        light = Light("POINT", (0.0, 0.0, 2.0), (0.0, 0.0, -1.0), power=power)
+        lighting = Lighting((light,), (0.2,) * 3, None)
+        radiance = radiance_factor(lighting, points, normals)
+        k = colour_factor(s.sh_dc, radiance, 1.0)
+        assert (k >= 0).all() and (k <= 1.0 + 1e-12).all()
+        np.testing.assert_array_equal(k == 0.0, radiance <= 0.0)  # black where it is dark
+        assert (radiance <= 0.0).mean() > (0.9 if dark else 0.0) and (radiance > 0.0).mean() > (0.0 if dark else 0.9)
+        lit = lit_splats(s, world, lighting, 1.0)
+        after = np.maximum(sh_to_rgb(lit.sh_dc, lit.sh_rest, dirs, 3), 0.0)
+        assert (after <= before + 1e-5).all()
+        assert (after[(radiance <= 0.0).all(axis=1)] == 0.0).all()
+
+
 def _white_floor(n=4000, seed=0):
     """Flat white splats on z = 0 (DC giving colour 1), 2 m across."""
     s = random_splats(n, degree=0, seed=seed)

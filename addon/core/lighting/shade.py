@@ -111,10 +111,12 @@ def lit_splats(splats, world: np.ndarray, lighting: Lighting, amount: float, vis
 
 
 def colour_factor(sh_dc: np.ndarray, radiance: np.ndarray, amount: float) -> np.ndarray:
-    """(N, 3) k: sRGB(albedo x radiance) / c, blended with 1 by amount."""
+    """(N, 3) k >= 0: sRGB(albedo x radiance) / c, blended with 1 by amount."""
     c = 0.5 + C0 * sh_dc.astype(np.float64)
     albedo = srgb_to_linear(np.maximum(c, 0.0))
-    lit = linear_to_srgb(albedo * radiance)
+    # a negative light (Blender allows them) darkens to black, no further: k < 0 would turn
+    # the SH's lobes below 0.5 bright
+    lit = linear_to_srgb(albedo * np.maximum(radiance, 0.0))
     k = np.where(c > _DARK, lit / np.where(c > _DARK, c, 1.0), 1.0)
     return 1.0 + float(min(amount, 1.0)) * (k - 1.0)
 

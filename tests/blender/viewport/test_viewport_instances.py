@@ -105,3 +105,25 @@ def test_more_instances_than_a_texture_row_holds(gpu_ready):
     covered = (want[..., 3] > 0.01).mean()
     print(f"{n} instances: {psnr(got, want):.1f} dB against the reference, {covered:.0%} of pixels covered")
     assert covered > 0.2 and psnr(got, want) >= 60.0
+
+
+def test_lit_instances_are_each_lit_at_their_own_place(gpu_ready, testdata):
+    """Look > Lighting on instances: the preprocess pass lights each instance through its own
+    object row, sharing one upload, as the CPU lights each placed copy (core/lighting)."""
+    from addon.blender.viewport import DrawSettings
+    from addon.core.lighting.lights import Light
+    from addon.core.lighting.shade import Lighting, lit_splats
+
+    instances, _, camera = _scene(testdata)
+    eye = tuple(np.linalg.inv(camera.world_to_camera)[:3, 3])
+    centre = np.mean([i.world[:3, 3] for i in instances], axis=0)
+    lighting = Lighting((Light("POINT", tuple(centre + (0.1, -0.2, 0.15)), (0.0, 0.0, -1.0), power=2.0),),
+                        (0.1, 0.1, 0.1), eye)
+    lit_here = [replace(i, lighting=1.0) for i in instances]
+    got, drew = draw_offscreen(lit_here, camera, settings=DrawSettings(lighting=lighting))
+    drew.close()
+    on_cpu = [replace(i, splats=lit_splats(i.splats, i.world, lighting, 1.0), key=None) for i in instances]
+    want = reference.render(on_cpu, camera).rgba
+    unlit = reference.render(instances, camera).rgba
+    print(f"lit instances: {psnr(got, want):.1f} dB against the reference, {psnr(unlit, want):.1f} unlit")
+    assert psnr(unlit, want) < 40.0 and psnr(got, want) >= 60.0

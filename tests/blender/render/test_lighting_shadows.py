@@ -93,3 +93,30 @@ def test_a_flattened_floor_and_a_flattened_light_render(bpy_empty, tmp_path):
     assert np.isfinite(frames["REFERENCE"]).all() and np.isfinite(frames["OFFSCREEN"]).all()
     assert frames["REFERENCE"][..., 0].max() > 0.3  # lit by the sun: its normals are +-z
     assert psnr(np.clip(frames["OFFSCREEN"], 0, 1), np.clip(frames["REFERENCE"], 0, 1)) >= 60.0
+
+
+def test_keyed_lights_animate_and_each_frame_is_its_own(bpy_empty, tmp_path):
+    """A sun keyed to turn and brighten over frames 1-3, the cube's shadow moving with it: the
+    frames differ, and frame 2 rendered first, then again after frames 1 and 3 (the lit
+    results of other frames kept meanwhile), is bit for bit the same frame."""
+    from addon.blender.evaluate import lighting
+
+    bpy = bpy_empty
+    _, sun, scene = _scene(bpy, spacing=0.05)
+    for frame, tilt, strength in ((1, 0.35, 2.0), (3, -0.35, 4.0)):
+        sun.rotation_euler.x, sun.data.energy = tilt, strength
+        sun.keyframe_insert("rotation_euler", frame=frame)
+        sun.data.keyframe_insert("energy", frame=frame)
+
+    def frame(n):
+        scene.frame_set(n)
+        set_output(scene, "EXR", tmp_path / f"f{n}")
+        bpy.ops.render.render(write_still=True)
+        return read_exr_parts((tmp_path / f"f{n}").with_suffix(".exr"))["ViewLayer.Combined"]
+
+    lighting.clear()
+    first = frame(2)
+    one, three, again = frame(1), frame(3), frame(2)
+    np.testing.assert_array_equal(first, again)
+    assert not np.array_equal(one, first) and not np.array_equal(first, three)
+    assert three[..., 0].mean() > one[..., 0].mean()  # the sun brightens

@@ -80,6 +80,22 @@ def test_effects_keep_the_decision_and_thin_the_evaluated_splats(native_bpy, tes
     assert native_handoff._HANDOFF.kept.found == decided
 
 
+def test_only_eevees_own_crash_runs_a_child_again():
+    import signal
+    from subprocess import CompletedProcess
+
+    from testing.eevee_outliers import upstream_eevee_crash
+
+    def run(code, err=""):
+        return CompletedProcess([], code, "", err)
+
+    assert upstream_eevee_crash(run(-signal.SIGABRT, "corrupted size vs. prev_size\n"))
+    assert upstream_eevee_crash(run(-signal.SIGSEGV))
+    assert not upstream_eevee_crash(run(-signal.SIGABRT, "Assertion failed\n"))
+    assert not upstream_eevee_crash(run(1, "Traceback (most recent call last):\n"))
+    assert not upstream_eevee_crash(run(0))
+
+
 @pytest.mark.parametrize("distance", [100_000.0])
 def test_eevee_keeps_its_precision_with_the_guard_on(native_bpy, tmp_path, distance):
     """EEVEE, each render in a child process (testing/eevee_outliers.py): with the guard on

@@ -48,6 +48,7 @@ def capture_over_plane(bpy):
 
     import numpy as np
 
+    from addon.blender.data.capture_camera import splat_world_points
     from testing.lit_scene import add_light
     from testing.paths import SHARED_TESTDATA
 
@@ -55,7 +56,7 @@ def capture_over_plane(bpy):
     capture = bpy.context.active_object
     capture.rotation_euler.x += math.pi / 2
     bpy.context.view_layer.update()
-    lo, hi = np.percentile(world_centres(capture), [2, 98], axis=0)
+    lo, hi = np.percentile(splat_world_points([capture]), [2, 98], axis=0)
     floor = lo[2] - 0.5 * (hi[2] - lo[2]) - 0.2
     bpy.ops.mesh.primitive_plane_add(size=4.0 * float(np.max(hi - lo)), location=(*(0.5 * (lo + hi))[:2], floor))
     add_light(bpy, "SUN", location=(0.0, 0.0, hi[2] + 1.0))
@@ -69,17 +70,6 @@ def capture_over_plane(bpy):
 
 
 CAPTURE_VIEW = 1.4   # the camera's width over the capture's longer side
-
-
-def world_centres(obj):
-    """(N, 3) float64 world-space splat centres of a splat object."""
-    import numpy as np
-
-    from addon.blender.data.pointcloud import read_floats
-
-    local = read_floats(obj.data.attributes, "position", 3, len(obj.data.points))
-    m = np.array(obj.matrix_world, np.float64)
-    return local.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
 
 
 def build(bpy, engine: str, case: str):

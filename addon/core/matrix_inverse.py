@@ -8,6 +8,8 @@ minors of the top and bottom row pairs (Laplace expansion), in Python floats.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -69,9 +71,12 @@ def thickened(m) -> np.ndarray:
     SVD goes to LAPACK, but only for such a transform."""
     a = np.asarray(m, np.float64)
     linear = a[:3, :3]
-    big = float(np.abs(linear).max()) if np.isfinite(linear).all() else 0.0
+    values = linear.tolist()  # Python floats: this runs for every object and instance drawn
+    (p, q, r), (d, e, f), (g, h, i) = values
+    big = max(abs(v) for row in values for v in row)
     # |det| = s0 s1 s2 <= s0^2 s2 and s0 <= 3 big: at 27 FLAT big^3, s2 >= FLAT s0 already
-    if big == 0.0 or abs(_det3(linear)) >= 27.0 * FLAT * big ** 3:
+    det = p * (e * i - f * h) - q * (d * i - f * g) + r * (d * h - e * g)
+    if not math.isfinite(det) or big == 0.0 or abs(det) >= 27.0 * FLAT * big ** 3:
         return a
     u, s, vt = np.linalg.svd(linear)
     if s[2] >= FLAT * s[0]:
@@ -79,8 +84,3 @@ def thickened(m) -> np.ndarray:
     out = a.copy()
     out[:3, :3] = (u * np.maximum(s, FLAT * s[0])) @ vt
     return out
-
-
-def _det3(m) -> float:
-    (a, b, c), (d, e, f), (g, h, i) = np.asarray(m, np.float64).tolist()
-    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)

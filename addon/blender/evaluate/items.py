@@ -217,11 +217,11 @@ def collect_items(depsgraph, defer=None, defer_lighting: bool = False) -> list[R
         item = evaluated[ident]
         if item is not None:
             item = placed(item, world, path)
-            if level > 0 and defer_lighting:
-                item = replace(item, lighting=level)
-            elif level > 0:
+            if lit_here:
                 lighting = lighting or scene_lighting(depsgraph)
                 item = lit_item(item, lighting, level, depsgraph)
+            elif level > 0:
+                item = replace(item, lighting=level)
             items.append(item)
     return items
 

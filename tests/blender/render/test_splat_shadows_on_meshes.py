@@ -85,12 +85,12 @@ def _shadow_mask(bpy, size):
     centre at all in their 5x5 neighbourhood."""
     import numpy as np
 
-    from addon.blender.data.pointcloud import BASE, read_floats
-    from testing.splat_shadow_scene import world_centres
+    from addon.blender.data.capture_camera import splat_world_points
+    from addon.blender.data.pointcloud import read_opacities_scales_rotations
 
     capture = next(o for o in bpy.context.scene.objects if o.type == "POINTCLOUD")
-    centres = world_centres(capture)
-    opacity = read_floats(capture.data.attributes, BASE, 4, len(centres))[:, 3]
+    centres = splat_world_points([capture])
+    opacity = read_opacities_scales_rotations(capture.data)[0]
     cam = bpy.context.scene.camera
     half = cam.data.ortho_scale / 2
     x = (centres[:, 0] - cam.location.x + half) / (2 * half) * size
